@@ -1,0 +1,43 @@
+// Checks of a triangle mesh before binding, and what the solver does about
+// what it finds. Hard errors throw arap::Error; everything else is a
+// documented fallback counted here.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace arap {
+
+struct MeshReport {
+  int vertices = 0;
+  int triangles = 0;
+  // Triangles with (near) zero area: their cotangents would be infinite, so
+  // they add no weight (skipped). Counted, not an error.
+  int degenerate_triangles = 0;
+  // Vertices in no usable triangle: kept where they are given (rest, or target).
+  int isolated_vertices = 0;
+  // Connected components over usable triangles.
+  int components = 0;
+  // Components without any constrained vertex: the system is singular there,
+  // so they are kept at their rest shape (documented fallback).
+  int unconstrained_components = 0;
+  int unconstrained_vertices = 0;
+  // Edges shared by more than two triangles. The math does not need
+  // manifoldness: they are solved as usual.
+  int nonmanifold_edges = 0;
+};
+
+// A triangle is degenerate when twice its area is below this fraction of the
+// square of its longest edge (sine of its largest-angle complement ~ 1e-12).
+constexpr double kDegenerateRelativeArea = 1e-12;
+
+// Component id of every vertex over non-degenerate triangles (-1 for isolated
+// vertices); returns the number of components.
+int label_components(const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& rest,
+                     const Eigen::Ref<const Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>& triangles,
+                     std::vector<int>& component_of_vertex);
+
+bool is_degenerate_triangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c);
+
+}  // namespace arap

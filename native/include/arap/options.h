@@ -1,0 +1,44 @@
+// Settings of the ARAP engine. The names and defaults match the Blender
+// add-on's properties and the command-line flags.
+#pragma once
+
+#include <string>
+
+namespace arap {
+
+// Edge weights w_ij of the energy and of the Laplacian.
+enum class Weights {
+  Cotan,         // (cot a + cot b) / 2 as in Sorkine & Alexa 2007; may be negative
+  CotanClamped,  // each negative cotangent set to 0 before summing (default, see README)
+  Uniform,       // w_ij = 1
+};
+
+// How the positions are initialised before the first local step.
+enum class InitialGuess {
+  Differential,  // Lipman et al. 2004: uniform-Laplacian coordinates, constraints hard
+  Naive,         // rest shape with the constrained vertices moved to their targets
+  Laplacian,     // one global step with identity rotations (Laplacian editing)
+  WarmStart,     // the last solution (falls back to `cold_start` before the first solve)
+};
+
+struct Options {
+  Weights weights = Weights::CotanClamped;
+  InitialGuess init = InitialGuess::Laplacian;
+  // Used when init == WarmStart and there is no previous solution yet.
+  InitialGuess cold_start = InitialGuess::Laplacian;
+  int max_iterations = 10;
+  // Stop when (E_prev - E) <= tolerance * |E_prev|; 0 runs the whole budget.
+  double tolerance = 1e-6;
+  // Worker threads for the local step and the right-hand side; 1 = no OpenMP region.
+  int threads = 1;
+  // Anderson acceleration window (Peng et al. 2018); 0 = plain local/global.
+  int anderson_window = 0;
+};
+
+// Parse / print the names used on the command line and in Python ("cotan-clamped").
+Weights parse_weights(const std::string& name);
+InitialGuess parse_initial_guess(const std::string& name);
+std::string to_string(Weights w);
+std::string to_string(InitialGuess g);
+
+}  // namespace arap

@@ -1,0 +1,90 @@
+// As-Rigid-As-Possible surface deformation (Sorkine & Alexa 2007).
+//
+// Bind once per mesh and constraint set (weights, Laplacian, sparse Cholesky
+// of its free block), then solve many times with new target positions for
+// the constrained vertices. Each Solver owns all of its state: separate
+// instances may be used from separate threads.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "arap/errors.h"
+#include "arap/mesh_check.h"
+#include "arap/options.h"
+
+namespace arap {
+
+// #V by 3 positions, row-major so that numpy (n, 3) buffers map without copies.
+using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+// #F by 3 vertex indices of triangles.
+using Triangles = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
+
+struct SolveStats {
+  double initial_energy = 0;          // energy of the first guess
+  std::vector<double> energy;         // ARAP energy after each iteration (optimal rotations)
+  std::vector<double> iteration_ms;   // wall time of each iteration
+  double init_ms = 0;                 // first guess
+  double rotation_ms = 0;             // local steps (covariance + rotation fit), all iterations
+  double rhs_ms = 0;                  // right-hand side assembly, all iterations
+  double linear_solve_ms = 0;         // triangular solves, all iterations
+  int iterations = 0;
+  bool converged = false;             // stopped on the tolerance, not the budget
+  long rotation_fallbacks = 0;        // 3x3 fits that needed the full SVD
+  long anderson_rejections = 0;       // accelerated steps refused by the energy safeguard
+};
+
+class Solver {
+ public:
+  Solver();
+  ~Solver();
+  Solver(Solver&&) noexcept;
+  Solver& operator=(Solver&&) noexcept;
+  Solver(const Solver&) = delete;
+  Solver& operator=(const Solver&) = delete;
+
+  // rest: #V by 3 rest positions; triangles: #F by 3; constrained: indices of
+  // the vertices whose positions solve() receives (fixed and handles alike,
+  // no duplicates). Throws arap::Error on bad input.
+  void bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
+            const std::vector<int>& constrained, const Options& options = Options());
+
+  // targets: #constrained by 3, in the order given to bind(). Runs up to
+  // options().max_iterations iterations from options().init and leaves the
+  // result in positions(). Never leaves NaN in positions(): on a non-finite
+  // target it throws before touching them.
+  SolveStats solve(const Eigen::Ref<const Points>& targets);
+
+  // The current solution (#V by 3); the rest shape right after bind().
+  const Points& positions() const;
+  // Replace the warm-start state (e.g. to resume a bake from a stored frame).
+  void set_positions(const Eigen::Ref<const Points>& positions);
+
+  // Settings that need no re-bind (iterations, tolerance, init, threads, anderson).
+  // Changing `weights` here throws at the next solve(): bind again instead.
+  Options& options();
+  const Options& options() const;
+
+  bool is_bound() const;
+  int vertex_count() const;
+  const std::vector<int>& constrained() const;
+  const MeshReport& mesh_report() const;
+  double bind_ms() const;
+  // Nonzeros of the Cholesky factor of the free block (memory and solve cost follow it).
+  long factor_nonzeros() const;
+
+  // ARAP energy of `positions` with the optimal rotation of every cell and the
+  // weights in use: sum_i sum_j w_ij |(p'_i - p'_j) - R_i (p_i - p_j)|^2.
+  double energy(const Eigen::Ref<const Points>& positions) const;
+  // Its gradient with respect to every vertex position (#V by 3):
+  // dE/dp'_i = 4 sum_j w_ij (p'_i - p'_j) - 2 sum_j w_ij (R_i + R_j)(p_i - p_j).
+  Points energy_gradient(const Eigen::Ref<const Points>& positions) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace arap

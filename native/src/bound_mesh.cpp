@@ -1,0 +1,137 @@
+#include "bound_mesh.h"
+
+#include <cmath>
+#include <string>
+
+#include "arap/errors.h"
+#include "arap/weights.h"
+
+namespace arap {
+
+namespace {
+
+void check_input(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
+                 const std::vector<int>& constrained) {
+  const Eigen::Index n = rest.rows();
+  if (n == 0) throw Error(ErrorCode::InvalidInput, "the mesh has no vertices");
+  if (n > 100000000) throw Error(ErrorCode::InvalidInput, "more than 100 million vertices are not supported");
+  if (triangles.rows() == 0) throw Error(ErrorCode::NoTriangles, "the mesh has no triangles");
+  for (Eigen::Index v = 0; v < n; ++v)
+    if (!rest.row(v).allFinite())
+      throw Error(ErrorCode::NonFinite, "rest position of vertex " + std::to_string(v) + " is not finite (NaN or Inf)");
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int v = triangles(f, k);
+      if (v < 0 || v >= n)
+        throw Error(ErrorCode::IndexOutOfRange, "triangle " + std::to_string(f) + " refers to vertex " +
+                                                    std::to_string(v) + ", but the mesh has " + std::to_string(n) +
+                                                    " vertices");
+    }
+  if (constrained.empty())
+    throw Error(ErrorCode::NoConstraints, "no constrained vertices: give at least one fixed or handle vertex");
+  std::vector<char> seen(n, 0);
+  for (int v : constrained) {
+    if (v < 0 || v >= n)
+      throw Error(ErrorCode::IndexOutOfRange, "constrained vertex " + std::to_string(v) + " is out of range (the mesh has " +
+                                                  std::to_string(n) + " vertices)");
+    if (seen[v]) throw Error(ErrorCode::DuplicateConstraint, "vertex " + std::to_string(v) + " is constrained twice");
+    seen[v] = 1;
+  }
+}
+
+}  // namespace
+
+BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
+                           const std::vector<int>& constrained, Weights weights) {
+  check_input(rest, triangles, constrained);
+  BoundMesh m;
+  m.n = static_cast<int>(rest.rows());
+  m.rest = rest;
+  m.report.vertices = m.n;
+  m.report.triangles = static_cast<int>(triangles.rows());
+
+  EdgeCounts counts;
+  const std::vector<WeightedEdge> edges = edge_weights(rest, triangles, weights, &counts);
+  m.report.degenerate_triangles = counts.degenerate_triangles;
+  m.report.nonmanifold_edges = counts.nonmanifold_edges;
+
+  // Components without a constraint and isolated vertices are kept at rest.
+  std::vector<int> component;
+  m.report.components = label_components(rest, triangles, component);
+  std::vector<char> component_constrained(m.report.components, 0);
+  for (int v : constrained)
+    if (component[v] >= 0) component_constrained[component[v]] = 1;
+  for (int c = 0; c < m.report.components; ++c) m.report.unconstrained_components += !component_constrained[c];
+  m.constrained = constrained;
+  m.user_constrained = static_cast<int>(constrained.size());
+  std::vector<char> is_constrained(m.n, 0);
+  for (int v : constrained) is_constrained[v] = 1;
+  for (int v = 0; v < m.n; ++v) {
+    if (is_constrained[v]) continue;
+    if (component[v] < 0) {
+      ++m.report.isolated_vertices;
+    } else if (component_constrained[component[v]]) {
+      continue;
+    } else {
+      ++m.report.unconstrained_vertices;
+    }
+    is_constrained[v] = 1;
+    m.constrained.push_back(v);
+  }
+  m.free_row.assign(m.n, -1);
+  for (int v = 0; v < m.n; ++v)
+    if (!is_constrained[v]) {
+      m.free_row[v] = static_cast<int>(m.free_vertices.size());
+      m.free_vertices.push_back(v);
+    }
+  std::vector<int> slot_of(m.n, -1);
+  for (size_t s = 0; s < m.constrained.size(); ++s) slot_of[m.constrained[s]] = static_cast<int>(s);
+
+  // Spokes in CSR order: both directions of every edge with a nonzero weight.
+  m.spoke_begin.assign(m.n + 1, 0);
+  for (const auto& e : edges)
+    if (e.w != 0) ++m.spoke_begin[e.i + 1], ++m.spoke_begin[e.j + 1];
+  for (int v = 0; v < m.n; ++v) m.spoke_begin[v + 1] += m.spoke_begin[v];
+  m.neighbor.resize(m.spoke_begin[m.n]);
+  m.spokes.resize(m.spoke_begin[m.n]);
+  m.rest_spoke_energy.assign(m.n, 0.0);
+  m.g_sum.assign(3 * static_cast<size_t>(m.n), 0.0);
+  std::vector<int> fill(m.spoke_begin.begin(), m.spoke_begin.end() - 1);
+  auto add_spoke = [&](int i, int j, double w) {
+    const Eigen::Vector3d g = w * (rest.row(i) - rest.row(j)).transpose();
+    const int k = fill[i]++;
+    m.neighbor[k] = j;
+    m.spokes[k] = {g.x(), g.y(), g.z(), w};
+    m.rest_spoke_energy[i] += w * (rest.row(i) - rest.row(j)).squaredNorm();
+    for (int d = 0; d < 3; ++d) m.g_sum[3 * i + d] += g[d];
+  };
+  for (const auto& e : edges) {
+    if (e.w == 0) continue;
+    add_spoke(e.i, e.j, e.w);
+    add_spoke(e.j, e.i, e.w);
+  }
+
+  // Free block of L (L_ii = sum_j w_ij, L_ij = -w_ij) and its coupling to constrained vertices.
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(m.spokes.size() + m.free_vertices.size());
+  for (size_t r = 0; r < m.free_vertices.size(); ++r) {
+    const int i = m.free_vertices[r];
+    double diagonal = 0;
+    for (int k = m.spoke_begin[i]; k < m.spoke_begin[i + 1]; ++k) {
+      const int j = m.neighbor[k];
+      const double w = m.spokes[k].w;
+      diagonal += w;
+      if (m.free_row[j] >= 0)
+        triplets.emplace_back(static_cast<int>(r), m.free_row[j], -w);
+      else
+        m.couplings.push_back({static_cast<int>(r), slot_of[j], w});
+    }
+    triplets.emplace_back(static_cast<int>(r), static_cast<int>(r), diagonal);
+  }
+  const int nf = static_cast<int>(m.free_vertices.size());
+  m.laplacian_ff.resize(nf, nf);
+  m.laplacian_ff.setFromTriplets(triplets.begin(), triplets.end());
+  return m;
+}
+
+}  // namespace arap

@@ -1,0 +1,54 @@
+// Everything bind() precomputes about a mesh and its constraint set, laid out
+// for the iteration loop: per-vertex spokes in one array (CSR), the free and
+// constrained numbering, and the free block of the weighted Laplacian.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+
+#include "arap/mesh_check.h"
+#include "arap/options.h"
+#include "arap/solver.h"
+
+namespace arap {
+
+// One directed spoke i -> j of the one-ring of i.
+struct Spoke {
+  double gx, gy, gz;  // g_ij = w_ij (p_i - p_j) at rest
+  double w;           // w_ij
+};
+
+// A free vertex's weight to a constrained neighbour: moves L_fc p_c to the right-hand side.
+struct Coupling {
+  int free_row;
+  int constrained_slot;
+  double w;
+};
+
+struct BoundMesh {
+  int n = 0;
+  Points rest;
+  // Spokes of vertex i: [spoke_begin[i], spoke_begin[i + 1]).
+  std::vector<int> spoke_begin;
+  std::vector<int> neighbor;
+  std::vector<Spoke> spokes;
+  std::vector<double> rest_spoke_energy;  // sum_j w_ij |p_i - p_j|^2 (rest), per vertex
+  std::vector<double> g_sum;              // G_i = sum_j g_ij, 3 per vertex
+  // Constrained = the user's constraints, then vertices kept at rest (components
+  // without constraints and isolated vertices).
+  std::vector<int> constrained;       // slot -> vertex
+  int user_constrained = 0;           // the first slots are the user's, in their order
+  std::vector<int> free_vertices;     // row -> vertex
+  std::vector<int> free_row;          // vertex -> row, -1 when constrained
+  std::vector<Coupling> couplings;
+  Eigen::SparseMatrix<double> laplacian_ff;  // both triangles
+  MeshReport report;
+};
+
+// Checks the input (throws arap::Error) and builds the bound mesh.
+BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
+                           const std::vector<int>& constrained, Weights weights);
+
+}  // namespace arap

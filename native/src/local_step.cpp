@@ -1,0 +1,67 @@
+#include "local_step.h"
+
+#include "arap/rotation_fit.h"
+
+namespace arap {
+
+double local_step(const BoundMesh& m, const double* P, Eigen::Matrix3d* R, double* cell_energy, int threads,
+                  long* fallbacks) {
+  const int* begin = m.spoke_begin.data();
+  const int* neighbor = m.neighbor.data();
+  const Spoke* spokes = m.spokes.data();
+  long fallback_count = 0;
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1) reduction(+ : fallback_count)
+  for (int i = 0; i < m.n; ++i) {
+    const double px = P[3 * i], py = P[3 * i + 1], pz = P[3 * i + 2];
+    double a00 = 0, a01 = 0, a02 = 0, a10 = 0, a11 = 0, a12 = 0, a20 = 0, a21 = 0, a22 = 0, deformed = 0;
+    for (int k = begin[i]; k < begin[i + 1]; ++k) {
+      const double* q = P + 3 * neighbor[k];
+      const double ex = px - q[0], ey = py - q[1], ez = pz - q[2];
+      const Spoke& s = spokes[k];
+      a00 += ex * s.gx, a01 += ex * s.gy, a02 += ex * s.gz;
+      a10 += ey * s.gx, a11 += ey * s.gy, a12 += ey * s.gz;
+      a20 += ez * s.gx, a21 += ez * s.gy, a22 += ez * s.gz;
+      deformed += s.w * (ex * ex + ey * ey + ez * ez);
+    }
+    Eigen::Matrix3d A;
+    A << a00, a01, a02, a10, a11, a12, a20, a21, a22;
+    fallback_count += fit_rotation(A, R[i]);
+    cell_energy[i] = deformed + m.rest_spoke_energy[i] - 2.0 * R[i].cwiseProduct(A).sum();
+  }
+  if (fallbacks) *fallbacks += fallback_count;
+  double total = 0;
+  for (int i = 0; i < m.n; ++i) total += cell_energy[i];
+  return total;
+}
+
+void assemble_rhs(const BoundMesh& m, const Eigen::Matrix3d* R, const double* coupled, double* rhs, int threads) {
+  const int nf = static_cast<int>(m.free_vertices.size());
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+  for (int r = 0; r < nf; ++r) {
+    const int i = m.free_vertices[r];
+    Eigen::Vector3d b = R[i] * Eigen::Vector3d(m.g_sum[3 * i], m.g_sum[3 * i + 1], m.g_sum[3 * i + 2]);
+    for (int k = m.spoke_begin[i]; k < m.spoke_begin[i + 1]; ++k) {
+      const Spoke& s = m.spokes[k];
+      b += R[m.neighbor[k]] * Eigen::Vector3d(s.gx, s.gy, s.gz);
+    }
+    rhs[3 * r] = 0.5 * b.x() + coupled[3 * r];
+    rhs[3 * r + 1] = 0.5 * b.y() + coupled[3 * r + 1];
+    rhs[3 * r + 2] = 0.5 * b.z() + coupled[3 * r + 2];
+  }
+}
+
+void energy_gradient(const BoundMesh& m, const double* P, const Eigen::Matrix3d* R, double* gradient) {
+  for (int i = 0; i < m.n; ++i) {
+    const Eigen::Vector3d pi(P[3 * i], P[3 * i + 1], P[3 * i + 2]);
+    Eigen::Vector3d g = -2.0 * (R[i] * Eigen::Vector3d(m.g_sum[3 * i], m.g_sum[3 * i + 1], m.g_sum[3 * i + 2]));
+    for (int k = m.spoke_begin[i]; k < m.spoke_begin[i + 1]; ++k) {
+      const int j = m.neighbor[k];
+      const Spoke& s = m.spokes[k];
+      g += 4.0 * s.w * (pi - Eigen::Vector3d(P[3 * j], P[3 * j + 1], P[3 * j + 2]));
+      g -= 2.0 * (R[j] * Eigen::Vector3d(s.gx, s.gy, s.gz));
+    }
+    gradient[3 * i] = g.x(), gradient[3 * i + 1] = g.y(), gradient[3 * i + 2] = g.z();
+  }
+}
+
+}  // namespace arap

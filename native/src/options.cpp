@@ -1,0 +1,42 @@
+#include "arap/options.h"
+
+#include "arap/errors.h"
+
+namespace arap {
+
+Weights parse_weights(const std::string& name) {
+  if (name == "cotan") return Weights::Cotan;
+  if (name == "cotan-clamped") return Weights::CotanClamped;
+  if (name == "uniform") return Weights::Uniform;
+  throw Error(ErrorCode::InvalidInput, "unknown weights '" + name + "' (expected cotan, cotan-clamped or uniform)");
+}
+
+InitialGuess parse_initial_guess(const std::string& name) {
+  if (name == "differential") return InitialGuess::Differential;
+  if (name == "naive") return InitialGuess::Naive;
+  if (name == "laplacian") return InitialGuess::Laplacian;
+  if (name == "warm" || name == "warm-start") return InitialGuess::WarmStart;
+  throw Error(ErrorCode::InvalidInput,
+              "unknown first guess '" + name + "' (expected differential, naive, laplacian or warm)");
+}
+
+std::string to_string(Weights w) {
+  switch (w) {
+    case Weights::Cotan: return "cotan";
+    case Weights::CotanClamped: return "cotan-clamped";
+    case Weights::Uniform: return "uniform";
+  }
+  return "?";
+}
+
+std::string to_string(InitialGuess g) {
+  switch (g) {
+    case InitialGuess::Differential: return "differential";
+    case InitialGuess::Naive: return "naive";
+    case InitialGuess::Laplacian: return "laplacian";
+    case InitialGuess::WarmStart: return "warm";
+  }
+  return "?";
+}
+
+}  // namespace arap

@@ -1,0 +1,237 @@
+#include "arap/solver.h"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "block_cholesky.h"
+#include "bound_mesh.h"
+#include "initial_guess.h"
+#include "local_step.h"
+
+namespace arap {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+void check_options(const Options& o) {
+  if (o.max_iterations < 0) throw Error(ErrorCode::InvalidInput, "iterations must be >= 0");
+  if (!(o.tolerance >= 0) || !std::isfinite(o.tolerance))
+    throw Error(ErrorCode::InvalidInput, "tolerance must be a finite number >= 0");
+  if (o.threads < 1) throw Error(ErrorCode::InvalidInput, "threads must be >= 1");
+  if (o.anderson_window < 0 || o.anderson_window > 20)
+    throw Error(ErrorCode::InvalidInput, "anderson window must be between 0 and 20");
+  if (o.cold_start == InitialGuess::WarmStart)
+    throw Error(ErrorCode::InvalidInput, "the cold-start guess cannot itself be a warm start");
+}
+
+}  // namespace
+
+struct Solver::Impl {
+  Options options;
+  Weights bound_weights = Weights::CotanClamped;
+  BoundMesh mesh;
+  Triangles triangles;
+  std::vector<int> constrained_input;  // as given to bind()
+  BlockCholesky laplacian;
+  DifferentialGuess differential;
+  double bind_ms = 0;
+  bool bound = false;
+  bool has_solution = false;   // positions hold a solve() result (warm start possible)
+  bool rotations_valid = false;  // rotations are optimal for `positions`
+
+  Points positions;
+  std::vector<Eigen::Matrix3d> rotations;
+  std::vector<double> cell_energy, coupled, rhs, work;
+
+  // Writes the constrained positions into P and sum_j w_ij p_j into `coupled`.
+  void apply_targets(const Eigen::Ref<const Points>& targets, Points& P) {
+    for (int s = 0; s < mesh.user_constrained; ++s) P.row(mesh.constrained[s]) = targets.row(s);
+    for (size_t s = mesh.user_constrained; s < mesh.constrained.size(); ++s)
+      P.row(mesh.constrained[s]) = mesh.rest.row(mesh.constrained[s]);
+    std::fill(coupled.begin(), coupled.end(), 0.0);
+    for (const Coupling& c : mesh.couplings) {
+      const int v = mesh.constrained[c.constrained_slot];
+      for (int d = 0; d < 3; ++d) coupled[3 * c.free_row + d] += c.w * P(v, d);
+    }
+  }
+
+  void first_guess(InitialGuess guess) {
+    switch (guess) {
+      case InitialGuess::WarmStart:
+        break;
+      case InitialGuess::Naive:
+        for (int v : mesh.free_vertices) positions.row(v) = mesh.rest.row(v);
+        break;
+      case InitialGuess::Laplacian:
+        laplacian_guess(mesh, laplacian, coupled.data(), positions, rhs, work);
+        break;
+      case InitialGuess::Differential:
+        if (!differential.prepared()) differential.prepare(mesh, triangles);
+        differential.solve(mesh, positions, work);
+        break;
+    }
+  }
+
+  // Global step: L_ff p_f = b_f(R) + coupled.
+  void global_step(SolveStats& stats) {
+    auto t = Clock::now();
+    assemble_rhs(mesh, rotations.data(), coupled.data(), rhs.data(), options.threads);
+    stats.rhs_ms += ms_since(t);
+    t = Clock::now();
+    laplacian.solve_in_place(rhs.data(), work);
+    for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
+      positions.row(mesh.free_vertices[r]) << rhs[3 * r], rhs[3 * r + 1], rhs[3 * r + 2];
+    stats.linear_solve_ms += ms_since(t);
+  }
+
+  double local(SolveStats& stats) {
+    const auto t = Clock::now();
+    const double e = local_step(mesh, positions.data(), rotations.data(), cell_energy.data(), options.threads,
+                                &stats.rotation_fallbacks);
+    stats.rotation_ms += ms_since(t);
+    rotations_valid = true;
+    return e;
+  }
+};
+
+Solver::Solver() : impl_(std::make_unique<Impl>()) {}
+Solver::~Solver() = default;
+Solver::Solver(Solver&&) noexcept = default;
+Solver& Solver::operator=(Solver&&) noexcept = default;
+
+void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
+                  const std::vector<int>& constrained, const Options& options) {
+  check_options(options);
+  const auto start = Clock::now();
+  auto next = std::make_unique<Impl>();
+  next->options = options;
+  next->bound_weights = options.weights;
+  next->mesh = build_bound_mesh(rest, triangles, constrained, options.weights);
+  next->triangles = triangles;
+  next->constrained_input = constrained;
+  if (!next->laplacian.factor(next->mesh.laplacian_ff))
+    throw Error(ErrorCode::Factorization,
+                "the Laplacian could not be factored (not positive definite); with --weights cotan on a badly "
+                "triangulated mesh, try cotan-clamped");
+  const int n = next->mesh.n;
+  const size_t nf = next->mesh.free_vertices.size();
+  next->positions = next->mesh.rest;
+  next->rotations.assign(n, Eigen::Matrix3d::Identity());
+  next->cell_energy.assign(n, 0.0);
+  next->coupled.assign(3 * nf, 0.0);
+  next->rhs.assign(3 * nf, 0.0);
+  next->work.assign(3 * nf, 0.0);
+  next->bound = true;
+  next->bind_ms = ms_since(start);
+  impl_ = std::move(next);  // only a successful bind replaces the previous state
+}
+
+SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
+  Impl& s = *impl_;
+  if (!s.bound) throw Error(ErrorCode::NotBound, "solve() called before bind()");
+  check_options(s.options);
+  if (s.options.weights != s.bound_weights)
+    throw Error(ErrorCode::InvalidInput, "the weights changed since bind(): bind again to use " +
+                                             to_string(s.options.weights));
+  if (targets.rows() != s.mesh.user_constrained)
+    throw Error(ErrorCode::InvalidInput, "expected " + std::to_string(s.mesh.user_constrained) +
+                                             " target positions (one per constrained vertex), got " +
+                                             std::to_string(targets.rows()));
+  for (Eigen::Index r = 0; r < targets.rows(); ++r)
+    if (!targets.row(r).allFinite())
+      throw Error(ErrorCode::NonFinite, "target " + std::to_string(r) + " (vertex " +
+                                            std::to_string(s.mesh.constrained[r]) + ") is not finite");
+
+  SolveStats stats;
+  const Points previous = s.positions;  // restored if anything below goes wrong
+  try {
+    auto t = Clock::now();
+    InitialGuess guess = s.options.init;
+    if (guess == InitialGuess::WarmStart && !s.has_solution) guess = s.options.cold_start;
+    // A warm start keeps the rotations of the last solution for its first global step.
+    const bool reuse_rotations = guess == InitialGuess::WarmStart && s.rotations_valid;
+    s.apply_targets(targets, s.positions);
+    s.first_guess(guess);
+    stats.init_ms = ms_since(t);
+
+    double previous_energy = std::numeric_limits<double>::quiet_NaN();
+    if (!reuse_rotations) previous_energy = stats.initial_energy = s.local(stats);
+    else stats.initial_energy = previous_energy;
+    for (int it = 0; it < s.options.max_iterations; ++it) {
+      t = Clock::now();
+      s.global_step(stats);
+      const double e = s.local(stats);
+      stats.iteration_ms.push_back(ms_since(t));
+      stats.energy.push_back(e);
+      stats.iterations = it + 1;
+      if (std::isfinite(previous_energy) && previous_energy - e <= s.options.tolerance * std::abs(previous_energy)) {
+        stats.converged = true;
+        break;
+      }
+      previous_energy = e;
+    }
+    if (!s.positions.allFinite())
+      throw Error(ErrorCode::NonFinite, "the solve produced non-finite positions (the mesh was left unchanged)");
+  } catch (...) {
+    s.positions = previous;
+    s.rotations_valid = false;
+    throw;
+  }
+  s.has_solution = true;
+  return stats;
+}
+
+const Points& Solver::positions() const { return impl_->positions; }
+
+void Solver::set_positions(const Eigen::Ref<const Points>& positions) {
+  Impl& s = *impl_;
+  if (!s.bound) throw Error(ErrorCode::NotBound, "set_positions() called before bind()");
+  if (positions.rows() != s.mesh.n)
+    throw Error(ErrorCode::InvalidInput, "expected " + std::to_string(s.mesh.n) + " positions, got " +
+                                             std::to_string(positions.rows()));
+  if (!positions.allFinite()) throw Error(ErrorCode::NonFinite, "positions contain NaN or Inf");
+  s.positions = positions;
+  s.has_solution = true;
+  s.rotations_valid = false;
+}
+
+Options& Solver::options() { return impl_->options; }
+const Options& Solver::options() const { return impl_->options; }
+bool Solver::is_bound() const { return impl_->bound; }
+int Solver::vertex_count() const { return impl_->mesh.n; }
+const std::vector<int>& Solver::constrained() const { return impl_->constrained_input; }
+const MeshReport& Solver::mesh_report() const { return impl_->mesh.report; }
+double Solver::bind_ms() const { return impl_->bind_ms; }
+long Solver::factor_nonzeros() const { return impl_->laplacian.nonzeros(); }
+
+double Solver::energy(const Eigen::Ref<const Points>& positions) const {
+  const Impl& s = *impl_;
+  if (!s.bound) throw Error(ErrorCode::NotBound, "energy() called before bind()");
+  if (positions.rows() != s.mesh.n) throw Error(ErrorCode::InvalidInput, "energy(): wrong number of positions");
+  const Points P = positions;
+  std::vector<Eigen::Matrix3d> R(s.mesh.n);
+  std::vector<double> cells(s.mesh.n);
+  return local_step(s.mesh, P.data(), R.data(), cells.data(), s.options.threads, nullptr);
+}
+
+Points Solver::energy_gradient(const Eigen::Ref<const Points>& positions) const {
+  const Impl& s = *impl_;
+  if (!s.bound) throw Error(ErrorCode::NotBound, "energy_gradient() called before bind()");
+  if (positions.rows() != s.mesh.n)
+    throw Error(ErrorCode::InvalidInput, "energy_gradient(): wrong number of positions");
+  const Points P = positions;
+  std::vector<Eigen::Matrix3d> R(s.mesh.n);
+  std::vector<double> cells(s.mesh.n);
+  local_step(s.mesh, P.data(), R.data(), cells.data(), s.options.threads, nullptr);
+  Points gradient(s.mesh.n, 3);
+  arap::energy_gradient(s.mesh, P.data(), R.data(), gradient.data());
+  return gradient;
+}
+
+}  // namespace arap

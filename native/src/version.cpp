@@ -1,0 +1,5 @@
+#include "arap/version.h"
+
+namespace arap {
+const char* version() { return ARAP_VERSION; }
+}  // namespace arap

@@ -1,0 +1,73 @@
+#include "arap/weights.h"
+
+#include <algorithm>
+
+#include <Eigen/Geometry>
+
+#include "arap/mesh_check.h"
+
+namespace arap {
+
+namespace {
+
+struct EdgeEntry {
+  int i, j;
+  double w;
+  bool operator<(const EdgeEntry& o) const { return i != o.i ? i < o.i : j < o.j; }
+};
+
+// cot of the angle at `o` in the triangle (o, a, b): cos / sin = dot / |cross|.
+double cot_at(const Eigen::Vector3d& o, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  const Eigen::Vector3d u = a - o, v = b - o;
+  return u.dot(v) / u.cross(v).norm();
+}
+
+}  // namespace
+
+std::vector<WeightedEdge> edge_weights(
+    const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& rest,
+    const Eigen::Ref<const Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>& triangles, Weights kind,
+    EdgeCounts* counts) {
+  std::vector<EdgeEntry> entries;
+  entries.reserve(3 * static_cast<size_t>(triangles.rows()));
+  int degenerate = 0;
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
+    const int idx[3] = {triangles(f, 0), triangles(f, 1), triangles(f, 2)};
+    const Eigen::Vector3d p[3] = {rest.row(idx[0]), rest.row(idx[1]), rest.row(idx[2])};
+    if (is_degenerate_triangle(p[0], p[1], p[2])) {
+      ++degenerate;
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) {
+      // The edge opposite corner k.
+      const int a = (k + 1) % 3, b = (k + 2) % 3;
+      double w = 1.0;
+      if (kind != Weights::Uniform) {
+        const double c = cot_at(p[k], p[a], p[b]);
+        w = 0.5 * (kind == Weights::CotanClamped ? std::max(c, 0.0) : c);
+      }
+      entries.push_back({std::min(idx[a], idx[b]), std::max(idx[a], idx[b]), w});
+    }
+  }
+  std::sort(entries.begin(), entries.end());
+
+  std::vector<WeightedEdge> edges;
+  edges.reserve(entries.size() / 2 + 1);
+  int nonmanifold = 0;
+  for (size_t s = 0; s < entries.size();) {
+    size_t e = s;
+    double w = 0;
+    while (e < entries.size() && entries[e].i == entries[s].i && entries[e].j == entries[s].j) w += entries[e++].w;
+    if (e - s > 2) ++nonmanifold;
+    if (kind == Weights::Uniform) w = 1.0;
+    edges.push_back({entries[s].i, entries[s].j, w});
+    s = e;
+  }
+  if (counts) {
+    counts->degenerate_triangles = degenerate;
+    counts->nonmanifold_edges = nonmanifold;
+  }
+  return edges;
+}
+
+}  // namespace arap

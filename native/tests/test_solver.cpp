@@ -1,0 +1,188 @@
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include "arap/solver.h"
+#include "reference_arap.h"
+#include "test_meshes.h"
+
+namespace {
+
+using arap_test::concat;
+using arap_test::ring_vertices;
+using arap_test::rows_of;
+
+constexpr int kAround = 16, kRings = 21;
+
+// A tube with its bottom ring fixed and its top ring moved sideways (the bar bend).
+struct BentTube {
+  arap_test::Mesh mesh = arap_test::tube(kAround, kRings, 6.0);
+  std::vector<int> constrained = concat(ring_vertices(kAround, 0), ring_vertices(kAround, kRings - 1));
+  arap::Points targets;
+  explicit BentTube(double shift = 2.5) {
+    targets = rows_of(mesh.V, constrained);
+    for (int k = kAround; k < 2 * kAround; ++k) targets(k, 0) += shift;
+  }
+};
+
+arap::Options options_with(arap::InitialGuess init, int iterations, double tolerance = 0) {
+  arap::Options o;
+  o.init = init;
+  o.max_iterations = iterations;
+  o.tolerance = tolerance;
+  return o;
+}
+
+TEST(Solver, RigidMotionOfAllConstraintsGivesTheRigidlyMovedMesh) {
+  const BentTube t;
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, 1, 0.2).normalized()).toRotationMatrix();
+  const Eigen::RowVector3d shift(0.4, -1.0, 2.0);
+  const arap::Points moved = (t.mesh.V * R.transpose()).rowwise() + shift;
+  for (auto init : {arap::InitialGuess::Naive, arap::InitialGuess::Laplacian, arap::InitialGuess::Differential}) {
+    arap::Solver solver;
+    solver.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(init, 3000, 1e-15));
+    const auto stats = solver.solve(rows_of(moved, t.constrained));
+    EXPECT_LT((solver.positions() - moved).cwiseAbs().maxCoeff(), 1e-6) << arap::to_string(init);
+    EXPECT_NEAR(stats.energy.back(), 0.0, 1e-9);
+  }
+}
+
+TEST(Solver, EnergyNeverIncreases) {
+  const BentTube t;
+  for (auto weights : {arap::Weights::Cotan, arap::Weights::CotanClamped, arap::Weights::Uniform}) {
+    arap::Options o = options_with(arap::InitialGuess::Naive, 50);
+    o.weights = weights;
+    arap::Solver solver;
+    solver.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+    const auto stats = solver.solve(t.targets);
+    ASSERT_EQ(stats.energy.size(), 50u);
+    EXPECT_LE(stats.energy[0], stats.initial_energy * (1 + 1e-12));
+    for (size_t k = 1; k < stats.energy.size(); ++k)
+      EXPECT_LE(stats.energy[k], stats.energy[k - 1] + 1e-10 * std::abs(stats.energy[0])) << "iteration " << k;
+  }
+}
+
+TEST(Solver, MatchesAnIndependentTextbookImplementation) {
+  const BentTube t;
+  arap::Solver solver;
+  solver.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 10));
+  solver.options().weights = arap::Weights::CotanClamped;
+  const auto stats = solver.solve(t.targets);
+
+  arap_test::ReferenceArap reference(t.mesh.V, t.mesh.F, t.constrained, arap::Weights::CotanClamped);
+  arap::Points P = t.mesh.V;
+  for (size_t k = 0; k < t.constrained.size(); ++k) P.row(t.constrained[k]) = t.targets.row(k);
+  const auto expected = reference.run(P, 10);
+  for (int k = 0; k < 10; ++k) EXPECT_NEAR(stats.energy[k], expected[k], 1e-9 * expected[0]);
+  EXPECT_LT((solver.positions() - P).cwiseAbs().maxCoeff(), 1e-8);
+  EXPECT_NEAR(solver.energy(solver.positions()), stats.energy.back(), 1e-12 * expected[0]);
+}
+
+TEST(Solver, ConvergesToAStationaryPoint) {
+  const BentTube t;
+  arap::Solver solver;
+  solver.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Laplacian, 2000, 1e-13));
+  arap::Points start = t.mesh.V;
+  for (size_t k = 0; k < t.constrained.size(); ++k) start.row(t.constrained[k]) = t.targets.row(k);
+  const double initial_gradient = solver.energy_gradient(start).norm();
+  solver.solve(t.targets);
+  const arap::Points& P = solver.positions();
+  const arap::Points gradient = solver.energy_gradient(P);
+  double free_gradient = 0;
+  for (int v = 2 * kAround; v < P.rows() - kAround; ++v) free_gradient += gradient.row(v).squaredNorm();
+  // Ring 0 and the last ring are the first and last vertices: the rest are free.
+  EXPECT_LT(std::sqrt(free_gradient), 1e-4 * initial_gradient);
+  for (size_t k = 0; k < t.constrained.size(); ++k)
+    EXPECT_LT((P.row(t.constrained[k]) - t.targets.row(k)).norm(), 1e-12);
+}
+
+TEST(Solver, GradientMatchesFiniteDifferencesOfTheEnergy) {
+  const BentTube t;
+  arap::Solver solver;
+  solver.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 3));
+  solver.solve(t.targets);
+  arap::Points P = solver.positions();
+  const arap::Points gradient = solver.energy_gradient(P);
+  const double h = 1e-6;
+  for (int v : {40, 77, 150, 200}) {
+    for (int d = 0; d < 3; ++d) {
+      arap::Points plus = P, minus = P;
+      plus(v, d) += h;
+      minus(v, d) -= h;
+      const double numeric = (solver.energy(plus) - solver.energy(minus)) / (2 * h);
+      EXPECT_NEAR(gradient(v, d), numeric, 1e-5 * (1 + std::abs(numeric))) << "vertex " << v << " axis " << d;
+    }
+  }
+}
+
+TEST(Solver, EveryFirstGuessMeetsTheConstraintsAndConverges) {
+  const BentTube t;
+  for (auto init : {arap::InitialGuess::Naive, arap::InitialGuess::Laplacian, arap::InitialGuess::Differential,
+                    arap::InitialGuess::WarmStart}) {
+    arap::Solver solver;
+    solver.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(init, 0));
+    const auto guess = solver.solve(t.targets);
+    EXPECT_TRUE(solver.positions().allFinite());
+    EXPECT_LT((rows_of(solver.positions(), t.constrained) - t.targets).norm(), 1e-12) << arap::to_string(init);
+    solver.options().max_iterations = 300;
+    solver.options().init = arap::InitialGuess::WarmStart;
+    const auto stats = solver.solve(t.targets);
+    EXPECT_LT(stats.energy.back(), guess.initial_energy) << arap::to_string(init);
+  }
+  // The guesses differ: the differential one keeps the uniform-Laplacian detail of the rest shape.
+  arap::Solver naive, differential;
+  naive.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 0));
+  differential.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Differential, 0));
+  naive.solve(t.targets);
+  differential.solve(t.targets);
+  EXPECT_GT((naive.positions() - differential.positions()).norm(), 1e-3);
+}
+
+TEST(Solver, WarmStartNeedsFewerIterationsThanColdStartForASmallMove) {
+  BentTube t(2.5);
+  const double tolerance = 1e-7;
+  arap::Solver warm;
+  warm.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::WarmStart, 1000, tolerance));
+  warm.solve(t.targets);
+  BentTube moved(2.6);
+  const auto warm_stats = warm.solve(moved.targets);
+  arap::Solver cold;
+  cold.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Laplacian, 1000, tolerance));
+  const auto cold_stats = cold.solve(moved.targets);
+  EXPECT_TRUE(warm_stats.converged);
+  EXPECT_TRUE(cold_stats.converged);
+  EXPECT_LT(warm_stats.iterations, cold_stats.iterations);
+}
+
+TEST(Solver, ResultsAreDeterministicAndIndependentOfThreads) {
+  const BentTube t;
+  arap::Points first;
+  std::vector<double> first_energy;
+  for (int threads : {1, 2, 1}) {
+    arap::Options o = options_with(arap::InitialGuess::Laplacian, 20);
+    o.threads = threads;
+    arap::Solver solver;
+    solver.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+    const auto stats = solver.solve(t.targets);
+    if (first.size() == 0) {
+      first = solver.positions();
+      first_energy = stats.energy;
+    } else {
+      EXPECT_EQ(solver.positions(), first);
+      EXPECT_EQ(stats.energy, first_energy);
+    }
+  }
+}
+
+TEST(Solver, ToleranceStopsEarlyAndReportsIt) {
+  const BentTube t;
+  arap::Solver solver;
+  solver.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Laplacian, 500, 1e-4));
+  const auto stats = solver.solve(t.targets);
+  EXPECT_TRUE(stats.converged);
+  EXPECT_LT(stats.iterations, 500);
+  EXPECT_EQ(stats.energy.size(), static_cast<size_t>(stats.iterations));
+  EXPECT_EQ(stats.iteration_ms.size(), static_cast<size_t>(stats.iterations));
+}
+
+}  // namespace

@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# One entry point for a fresh Debian 12 machine.
+#   bash setup.sh         install the packages, build, install the Blender add-on, run the demo
+#   bash setup.sh test    install the packages, build, run every test (C++ and Blender)
+#   bash setup.sh bench   install the benchmark's extra packages and run the benchmarks
+set -euo pipefail
+cd "$(dirname "$0")"
+mode=${1:-demo}
+BUILD=${ARAP_BUILD_DIR:-build}
+
+packages=(build-essential cmake libeigen3-dev libopenmesh-dev nlohmann-json3-dev pybind11-dev python3-dev
+          python3-numpy googletest libgtest-dev blender xvfb xauth xdotool imagemagick)
+[ "$mode" = bench ] && packages+=(libcgal-dev python3-matplotlib)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  sudo=""
+  [ "$(id -u)" -ne 0 ] && sudo=sudo
+  echo "Installing: ${missing[*]}"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+cmake -S . -B "$BUILD" -DCMAKE_BUILD_TYPE=Release
+cmake --build "$BUILD" -j"$(nproc)"
+
+case "$mode" in
+  test)
+    ctest --test-dir "$BUILD" --output-on-failure -j1
+    ;;
+  demo)
+    "$BUILD/arap-make-mesh" bar --vertices 2000 --output "$BUILD/demo_bar.obj" \
+      --fixed-out "$BUILD/demo_fixed.txt" --handle-out "$BUILD/demo_handle.txt"
+    "$BUILD/arap-deform" "$BUILD/demo_bar.obj" --fixed "$BUILD/demo_fixed.txt" \
+      --handle "$BUILD/demo_handle.txt" --translate 0,3,0 --iterations 20 --output "$BUILD/demo_bar_bent.obj"
+    if cmake --build "$BUILD" --target install_addon 2>/dev/null; then
+      cmake --build "$BUILD" --target demo_blend
+    fi
+    ;;
+  bench)
+    cmake --build "$BUILD" --target run_benchmarks
+    ;;
+  *)
+    echo "usage: bash setup.sh [test|bench]" >&2
+    exit 2
+    ;;
+esac
