@@ -5,6 +5,7 @@
 #include <limits>
 #include <string>
 
+#include "anderson.h"
 #include "block_cholesky.h"
 #include "bound_mesh.h"
 #include "initial_guess.h"
@@ -48,6 +49,36 @@ struct Solver::Impl {
   Points positions;
   std::vector<Eigen::Matrix3d> rotations;
   std::vector<double> cell_energy, coupled, rhs, work;
+  AndersonAccelerator anderson;
+  std::vector<double> free_before, free_after, free_next;  // #free by 3 each, for Anderson
+
+  void gather_free(std::vector<double>& out) const {
+    for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
+      for (int d = 0; d < 3; ++d) out[3 * r + d] = positions(mesh.free_vertices[r], d);
+  }
+  void scatter_free(const std::vector<double>& in) {
+    for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
+      for (int d = 0; d < 3; ++d) positions(mesh.free_vertices[r], d) = in[3 * r + d];
+  }
+
+  // One iteration: global step, then the local step that gives the new energy
+  // and the rotations for the next one. With Anderson acceleration the point
+  // after the global step is extrapolated and kept only if its energy is lower
+  // than `previous_energy` (then the iteration stays monotone like plain ARAP).
+  double iterate(double previous_energy, SolveStats& stats) {
+    const bool accelerate = options.anderson_window > 0 && std::isfinite(previous_energy);
+    if (accelerate) gather_free(free_before);
+    global_step(stats);
+    if (!accelerate) return local(stats);
+    gather_free(free_after);
+    anderson.step(free_before.data(), free_after.data(), free_next.data());
+    scatter_free(free_next);
+    const double accelerated = local(stats);
+    if (accelerated <= previous_energy) return accelerated;
+    ++stats.anderson_rejections;
+    scatter_free(free_after);
+    return local(stats);
+  }
 
   // Writes the constrained positions into P and sum_j w_ij p_j into `coupled`.
   void apply_targets(const Eigen::Ref<const Points>& targets, Points& P) {
@@ -163,10 +194,14 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     double previous_energy = std::numeric_limits<double>::quiet_NaN();
     if (!reuse_rotations) previous_energy = stats.initial_energy = s.local(stats);
     else stats.initial_energy = previous_energy;
+    if (s.options.anderson_window > 0) {
+      const size_t nf3 = 3 * s.mesh.free_vertices.size();
+      s.free_before.resize(nf3), s.free_after.resize(nf3), s.free_next.resize(nf3);
+      s.anderson.reset(s.options.anderson_window, static_cast<Eigen::Index>(nf3));
+    }
     for (int it = 0; it < s.options.max_iterations; ++it) {
       t = Clock::now();
-      s.global_step(stats);
-      const double e = s.local(stats);
+      const double e = s.iterate(previous_energy, stats);
       stats.iteration_ms.push_back(ms_since(t));
       stats.energy.push_back(e);
       stats.iterations = it + 1;
