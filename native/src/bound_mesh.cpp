@@ -5,6 +5,7 @@
 
 #include "arap/errors.h"
 #include "arap/weights.h"
+#include "vertex_order.h"
 
 namespace arap {
 
@@ -46,7 +47,6 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   check_input(rest, triangles, constrained);
   BoundMesh m;
   m.n = static_cast<int>(rest.rows());
-  m.rest = rest;
   m.report.vertices = m.n;
   m.report.triangles = static_cast<int>(triangles.rows());
 
@@ -55,6 +55,13 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   m.report.degenerate_triangles = counts.degenerate_triangles;
   m.report.nonmanifold_edges = counts.nonmanifold_edges;
 
+  // Internal numbering for locality of the per-vertex loops.
+  m.order = locality_order(m.n, edges);
+  m.rank.assign(m.n, 0);
+  for (int k = 0; k < m.n; ++k) m.rank[m.order[k]] = k;
+  m.rest.resize(m.n, 3);
+  for (int k = 0; k < m.n; ++k) m.rest.row(k) = rest.row(m.order[k]);
+
   // Components without a constraint and isolated vertices are kept at rest.
   std::vector<int> component;
   m.report.components = label_components(rest, triangles, component);
@@ -62,21 +69,24 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   for (int v : constrained)
     if (component[v] >= 0) component_constrained[component[v]] = 1;
   for (int c = 0; c < m.report.components; ++c) m.report.unconstrained_components += !component_constrained[c];
-  m.constrained = constrained;
   m.user_constrained = static_cast<int>(constrained.size());
-  std::vector<char> is_constrained(m.n, 0);
-  for (int v : constrained) is_constrained[v] = 1;
-  for (int v = 0; v < m.n; ++v) {
-    if (is_constrained[v]) continue;
-    if (component[v] < 0) {
+  std::vector<char> is_constrained(m.n, 0);  // internal index
+  for (int v : constrained) {
+    m.constrained.push_back(m.rank[v]);
+    is_constrained[m.rank[v]] = 1;
+  }
+  for (int k = 0; k < m.n; ++k) {
+    if (is_constrained[k]) continue;
+    const int c = component[m.order[k]];
+    if (c < 0) {
       ++m.report.isolated_vertices;
-    } else if (component_constrained[component[v]]) {
+    } else if (component_constrained[c]) {
       continue;
     } else {
       ++m.report.unconstrained_vertices;
     }
-    is_constrained[v] = 1;
-    m.constrained.push_back(v);
+    is_constrained[k] = 1;
+    m.constrained.push_back(k);
   }
   m.free_row.assign(m.n, -1);
   for (int v = 0; v < m.n; ++v)
@@ -90,7 +100,7 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   // Spokes in CSR order: both directions of every edge with a nonzero weight.
   m.spoke_begin.assign(m.n + 1, 0);
   for (const auto& e : edges)
-    if (e.w != 0) ++m.spoke_begin[e.i + 1], ++m.spoke_begin[e.j + 1];
+    if (e.w != 0) ++m.spoke_begin[m.rank[e.i] + 1], ++m.spoke_begin[m.rank[e.j] + 1];
   for (int v = 0; v < m.n; ++v) m.spoke_begin[v + 1] += m.spoke_begin[v];
   m.neighbor.resize(m.spoke_begin[m.n]);
   m.spokes.resize(m.spoke_begin[m.n]);
@@ -98,17 +108,18 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   m.g_sum.assign(3 * static_cast<size_t>(m.n), 0.0);
   std::vector<int> fill(m.spoke_begin.begin(), m.spoke_begin.end() - 1);
   auto add_spoke = [&](int i, int j, double w) {
-    const Eigen::Vector3d g = w * (rest.row(i) - rest.row(j)).transpose();
+    const Eigen::RowVector3d e = m.rest.row(i) - m.rest.row(j);
+    const Eigen::RowVector3d g = w * e;
     const int k = fill[i]++;
     m.neighbor[k] = j;
     m.spokes[k] = {g.x(), g.y(), g.z(), w};
-    m.rest_spoke_energy[i] += w * (rest.row(i) - rest.row(j)).squaredNorm();
+    m.rest_spoke_energy[i] += w * e.squaredNorm();
     for (int d = 0; d < 3; ++d) m.g_sum[3 * i + d] += g[d];
   };
   for (const auto& e : edges) {
     if (e.w == 0) continue;
-    add_spoke(e.i, e.j, e.w);
-    add_spoke(e.j, e.i, e.w);
+    add_spoke(m.rank[e.i], m.rank[e.j], e.w);
+    add_spoke(m.rank[e.j], m.rank[e.i], e.w);
   }
 
   // Free block of L (L_ii = sum_j w_ij, L_ij = -w_ij) and its coupling to constrained vertices.
@@ -132,6 +143,16 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   m.laplacian_ff.resize(nf, nf);
   m.laplacian_ff.setFromTriplets(triplets.begin(), triplets.end());
   return m;
+}
+
+void to_internal(const BoundMesh& m, const Eigen::Ref<const Points>& input, Points& internal) {
+  internal.resize(m.n, 3);
+  for (int k = 0; k < m.n; ++k) internal.row(k) = input.row(m.order[k]);
+}
+
+void to_input(const BoundMesh& m, const Points& internal, Points& input) {
+  input.resize(m.n, 3);
+  for (int k = 0; k < m.n; ++k) input.row(m.order[k]) = internal.row(k);
 }
 
 }  // namespace arap

@@ -27,9 +27,12 @@ struct Coupling {
   double w;
 };
 
+// All vertex indices below are internal: vertex v of the input is rank[v]
+// (a locality order, see vertex_order.h); order[k] is the input index of k.
 struct BoundMesh {
   int n = 0;
-  Points rest;
+  std::vector<int> order, rank;
+  Points rest;  // internal order
   // Spokes of vertex i: [spoke_begin[i], spoke_begin[i + 1]).
   std::vector<int> spoke_begin;
   std::vector<int> neighbor;
@@ -38,7 +41,7 @@ struct BoundMesh {
   std::vector<double> g_sum;              // G_i = sum_j g_ij, 3 per vertex
   // Constrained = the user's constraints, then vertices kept at rest (components
   // without constraints and isolated vertices).
-  std::vector<int> constrained;       // slot -> vertex
+  std::vector<int> constrained;       // slot -> internal vertex
   int user_constrained = 0;           // the first slots are the user's, in their order
   std::vector<int> free_vertices;     // row -> vertex
   std::vector<int> free_row;          // vertex -> row, -1 when constrained
@@ -48,7 +51,12 @@ struct BoundMesh {
 };
 
 // Checks the input (throws arap::Error) and builds the bound mesh.
+// `constrained` and `triangles` use input indices.
 BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
                            const std::vector<int>& constrained, Weights weights);
+
+// Rows of P moved between input and internal order.
+void to_internal(const BoundMesh& m, const Eigen::Ref<const Points>& input, Points& internal);
+void to_input(const BoundMesh& m, const Points& internal, Points& input);
 
 }  // namespace arap

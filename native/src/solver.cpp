@@ -46,7 +46,8 @@ struct Solver::Impl {
   bool has_solution = false;   // positions hold a solve() result (warm start possible)
   bool rotations_valid = false;  // rotations are optimal for `positions`
 
-  Points positions;
+  Points state;      // the current solution in internal vertex order (see bound_mesh.h)
+  Points positions;  // the same in input order, as returned by positions()
   std::vector<Eigen::Matrix3d> rotations;
   std::vector<double> cell_energy, coupled, rhs, work;
   AndersonAccelerator anderson;
@@ -54,11 +55,11 @@ struct Solver::Impl {
 
   void gather_free(std::vector<double>& out) const {
     for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
-      for (int d = 0; d < 3; ++d) out[3 * r + d] = positions(mesh.free_vertices[r], d);
+      for (int d = 0; d < 3; ++d) out[3 * r + d] = state(mesh.free_vertices[r], d);
   }
   void scatter_free(const std::vector<double>& in) {
     for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
-      for (int d = 0; d < 3; ++d) positions(mesh.free_vertices[r], d) = in[3 * r + d];
+      for (int d = 0; d < 3; ++d) state(mesh.free_vertices[r], d) = in[3 * r + d];
   }
 
   // One iteration: global step, then the local step that gives the new energy
@@ -97,14 +98,14 @@ struct Solver::Impl {
       case InitialGuess::WarmStart:
         break;
       case InitialGuess::Naive:
-        for (int v : mesh.free_vertices) positions.row(v) = mesh.rest.row(v);
+        for (int v : mesh.free_vertices) state.row(v) = mesh.rest.row(v);
         break;
       case InitialGuess::Laplacian:
-        laplacian_guess(mesh, laplacian, coupled.data(), positions, rhs, work);
+        laplacian_guess(mesh, laplacian, coupled.data(), state, rhs, work);
         break;
       case InitialGuess::Differential:
         if (!differential.prepared()) differential.prepare(mesh, triangles);
-        differential.solve(mesh, positions, work);
+        differential.solve(mesh, state, work);
         break;
     }
   }
@@ -117,13 +118,13 @@ struct Solver::Impl {
     t = Clock::now();
     laplacian.solve_in_place(rhs.data(), work);
     for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
-      positions.row(mesh.free_vertices[r]) << rhs[3 * r], rhs[3 * r + 1], rhs[3 * r + 2];
+      state.row(mesh.free_vertices[r]) << rhs[3 * r], rhs[3 * r + 1], rhs[3 * r + 2];
     stats.linear_solve_ms += ms_since(t);
   }
 
   double local(SolveStats& stats) {
     const auto t = Clock::now();
-    const double e = local_step(mesh, positions.data(), rotations.data(), cell_energy.data(), options.threads,
+    const double e = local_step(mesh, state.data(), rotations.data(), cell_energy.data(), options.threads,
                                 &stats.rotation_fallbacks);
     stats.rotation_ms += ms_since(t);
     rotations_valid = true;
@@ -144,7 +145,9 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
   next->options = options;
   next->bound_weights = options.weights;
   next->mesh = build_bound_mesh(rest, triangles, constrained, options.weights);
-  next->triangles = triangles;
+  next->triangles.resize(triangles.rows(), 3);
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f)
+    for (int k = 0; k < 3; ++k) next->triangles(f, k) = next->mesh.rank[triangles(f, k)];
   next->constrained_input = constrained;
   if (!next->laplacian.factor(next->mesh.laplacian_ff))
     throw Error(ErrorCode::Factorization,
@@ -152,7 +155,8 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
                 "triangulated mesh, try cotan-clamped");
   const int n = next->mesh.n;
   const size_t nf = next->mesh.free_vertices.size();
-  next->positions = next->mesh.rest;
+  next->state = next->mesh.rest;
+  next->positions = rest;
   next->rotations.assign(n, Eigen::Matrix3d::Identity());
   next->cell_energy.assign(n, 0.0);
   next->coupled.assign(3 * nf, 0.0);
@@ -177,17 +181,17 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
   for (Eigen::Index r = 0; r < targets.rows(); ++r)
     if (!targets.row(r).allFinite())
       throw Error(ErrorCode::NonFinite, "target " + std::to_string(r) + " (vertex " +
-                                            std::to_string(s.mesh.constrained[r]) + ") is not finite");
+                                            std::to_string(s.constrained_input[r]) + ") is not finite");
 
   SolveStats stats;
-  const Points previous = s.positions;  // restored if anything below goes wrong
+  const Points previous = s.state;  // restored if anything below goes wrong
   try {
     auto t = Clock::now();
     InitialGuess guess = s.options.init;
     if (guess == InitialGuess::WarmStart && !s.has_solution) guess = s.options.cold_start;
     // A warm start keeps the rotations of the last solution for its first global step.
     const bool reuse_rotations = guess == InitialGuess::WarmStart && s.rotations_valid;
-    s.apply_targets(targets, s.positions);
+    s.apply_targets(targets, s.state);
     s.first_guess(guess);
     stats.init_ms = ms_since(t);
 
@@ -211,13 +215,14 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       }
       previous_energy = e;
     }
-    if (!s.positions.allFinite())
+    if (!s.state.allFinite())
       throw Error(ErrorCode::NonFinite, "the solve produced non-finite positions (the mesh was left unchanged)");
   } catch (...) {
-    s.positions = previous;
+    s.state = previous;
     s.rotations_valid = false;
     throw;
   }
+  to_input(s.mesh, s.state, s.positions);
   s.has_solution = true;
   return stats;
 }
@@ -232,6 +237,7 @@ void Solver::set_positions(const Eigen::Ref<const Points>& positions) {
                                              std::to_string(positions.rows()));
   if (!positions.allFinite()) throw Error(ErrorCode::NonFinite, "positions contain NaN or Inf");
   s.positions = positions;
+  to_internal(s.mesh, positions, s.state);
   s.has_solution = true;
   s.rotations_valid = false;
 }
@@ -249,7 +255,8 @@ double Solver::energy(const Eigen::Ref<const Points>& positions) const {
   const Impl& s = *impl_;
   if (!s.bound) throw Error(ErrorCode::NotBound, "energy() called before bind()");
   if (positions.rows() != s.mesh.n) throw Error(ErrorCode::InvalidInput, "energy(): wrong number of positions");
-  const Points P = positions;
+  Points P;
+  to_internal(s.mesh, positions, P);
   std::vector<Eigen::Matrix3d> R(s.mesh.n);
   std::vector<double> cells(s.mesh.n);
   return local_step(s.mesh, P.data(), R.data(), cells.data(), s.options.threads, nullptr);
@@ -260,13 +267,15 @@ Points Solver::energy_gradient(const Eigen::Ref<const Points>& positions) const 
   if (!s.bound) throw Error(ErrorCode::NotBound, "energy_gradient() called before bind()");
   if (positions.rows() != s.mesh.n)
     throw Error(ErrorCode::InvalidInput, "energy_gradient(): wrong number of positions");
-  const Points P = positions;
+  Points P;
+  to_internal(s.mesh, positions, P);
   std::vector<Eigen::Matrix3d> R(s.mesh.n);
   std::vector<double> cells(s.mesh.n);
   local_step(s.mesh, P.data(), R.data(), cells.data(), s.options.threads, nullptr);
-  Points gradient(s.mesh.n, 3);
+  Points gradient(s.mesh.n, 3), gradient_input;
   arap::energy_gradient(s.mesh, P.data(), R.data(), gradient.data());
-  return gradient;
+  to_input(s.mesh, gradient, gradient_input);
+  return gradient_input;
 }
 
 }  // namespace arap

@@ -212,3 +212,21 @@ TEST(Solver, AndersonAccelerationStaysMonotoneAndConvergesFaster) {
 }
 
 }  // namespace
+
+#include "arap/quality.h"
+
+namespace {
+
+TEST(Quality, RigidMotionHasNoDistortionAndStretchHas) {
+  const auto m = arap_test::tube(12, 8, 3.0);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(1.1, Eigen::Vector3d(1, 0, 1).normalized()).toRotationMatrix();
+  const arap::Points moved = (m.V * R.transpose()).rowwise() + Eigen::RowVector3d(1, 2, 3);
+  EXPECT_NEAR(arap::rigidity_distortion(m.V, moved, m.F), 0.0, 1e-12);
+  arap::Points stretched = m.V;
+  stretched.col(2) *= 2.0;  // s = (2, 1) on every side triangle: sqrt(1) = 1
+  int flipped = -1;
+  EXPECT_NEAR(arap::rigidity_distortion(m.V, stretched, m.F, &flipped), 1.0, 1e-9);
+  EXPECT_EQ(flipped, 0);
+}
+
+}  // namespace
