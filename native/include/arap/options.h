@@ -16,16 +16,16 @@ enum class Weights {
 // How the positions are initialised before the first local step.
 enum class InitialGuess {
   Differential,  // Lipman et al. 2004: uniform-Laplacian coordinates, constraints hard
-  Naive,         // rest shape with the constrained vertices moved to their targets
+  Naive,         // rest shape with the constrained vertices moved to their targets (default, see README)
   Laplacian,     // one global step with identity rotations (Laplacian editing)
   WarmStart,     // the last solution (falls back to `cold_start` before the first solve)
 };
 
 struct Options {
   Weights weights = Weights::CotanClamped;
-  InitialGuess init = InitialGuess::Laplacian;
+  InitialGuess init = InitialGuess::Naive;
   // Used when init == WarmStart and there is no previous solution yet.
-  InitialGuess cold_start = InitialGuess::Laplacian;
+  InitialGuess cold_start = InitialGuess::Naive;
   int max_iterations = 10;
   // Stop when (E_prev - E) <= tolerance * |E_prev|; 0 runs the whole budget.
   double tolerance = 1e-6;
