@@ -1,10 +1,14 @@
 #include "block_cholesky.h"
 
+#include <chrono>
+
 #include <Eigen/OrderingMethods>
 
 namespace arap {
 
 bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A) {
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
   n_ = A.rows();
   Eigen::AMDOrdering<int> amd;
   Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> Pinv;
@@ -14,7 +18,10 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A) {
   for (Eigen::Index old = 0; old < n_; ++old) perm_[P.indices()[old]] = static_cast<int>(old);
   Eigen::SparseMatrix<double> permuted;
   permuted = A.selfadjointView<Eigen::Lower>().twistedBy(P);
+  const auto ordered = Clock::now();
   llt_.compute(permuted);
+  ordering_ms_ = std::chrono::duration<double, std::milli>(ordered - start).count();
+  factor_ms_ = std::chrono::duration<double, std::milli>(Clock::now() - ordered).count();
   if (llt_.info() != Eigen::Success) return false;
   // The up-looking factorization stores each column's diagonal first.
   const auto& L = llt_.matrixL().nestedExpression();

@@ -14,6 +14,8 @@ class BlockCholesky {
   // A: both triangles stored. Orders with AMD, factors P A P^T = L L^T.
   // Returns false if A is not SPD.
   bool factor(const Eigen::SparseMatrix<double>& A);
+  double ordering_ms() const { return ordering_ms_; }
+  double factor_ms() const { return factor_ms_; }
   // x: rows() by 3 row-major, overwritten with A^-1 x. `work` is resized once.
   void solve_in_place(double* x, std::vector<double>& work) const;
   Eigen::Index rows() const { return n_; }
@@ -24,6 +26,7 @@ class BlockCholesky {
   Eigen::VectorXi perm_;  // row i of P A P^T is row perm_[i] of A
   Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> llt_;
   std::vector<double> inv_diag_;
+  double ordering_ms_ = 0, factor_ms_ = 0;
 };
 
 }  // namespace arap

@@ -1,5 +1,6 @@
 #include "bound_mesh.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -122,26 +123,34 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
     add_spoke(m.rank[e.j], m.rank[e.i], e.w);
   }
 
-  // Free block of L (L_ii = sum_j w_ij, L_ij = -w_ij) and its coupling to constrained vertices.
-  std::vector<Eigen::Triplet<double>> triplets;
-  triplets.reserve(m.spokes.size() + m.free_vertices.size());
-  for (size_t r = 0; r < m.free_vertices.size(); ++r) {
+  // Free block of L (L_ii = sum_j w_ij, L_ij = -w_ij), assembled column by column
+  // (it is symmetric), and its coupling to constrained vertices.
+  const int nf = static_cast<int>(m.free_vertices.size());
+  std::vector<int> outer(nf + 1, 0), inner;
+  std::vector<double> values;
+  inner.reserve(m.spokes.size() + nf);
+  values.reserve(m.spokes.size() + nf);
+  std::vector<std::pair<int, double>> column;
+  for (int r = 0; r < nf; ++r) {
     const int i = m.free_vertices[r];
     double diagonal = 0;
+    column.clear();
     for (int k = m.spoke_begin[i]; k < m.spoke_begin[i + 1]; ++k) {
       const int j = m.neighbor[k];
       const double w = m.spokes[k].w;
       diagonal += w;
       if (m.free_row[j] >= 0)
-        triplets.emplace_back(static_cast<int>(r), m.free_row[j], -w);
+        column.emplace_back(m.free_row[j], -w);
       else
-        m.couplings.push_back({static_cast<int>(r), slot_of[j], w});
+        m.couplings.push_back({r, slot_of[j], w});
     }
-    triplets.emplace_back(static_cast<int>(r), static_cast<int>(r), diagonal);
+    column.emplace_back(r, diagonal);
+    std::sort(column.begin(), column.end());
+    for (const auto& [row, value] : column) inner.push_back(row), values.push_back(value);
+    outer[r + 1] = static_cast<int>(inner.size());
   }
-  const int nf = static_cast<int>(m.free_vertices.size());
-  m.laplacian_ff.resize(nf, nf);
-  m.laplacian_ff.setFromTriplets(triplets.begin(), triplets.end());
+  m.laplacian_ff = Eigen::Map<const Eigen::SparseMatrix<double>>(nf, nf, static_cast<Eigen::Index>(inner.size()),
+                                                                 outer.data(), inner.data(), values.data());
   return m;
 }
 

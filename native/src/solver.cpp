@@ -41,7 +41,7 @@ struct Solver::Impl {
   std::vector<int> constrained_input;  // as given to bind()
   BlockCholesky laplacian;
   DifferentialGuess differential;
-  double bind_ms = 0;
+  BindStats bind_stats;
   bool bound = false;
   bool has_solution = false;   // positions hold a solve() result (warm start possible)
   bool rotations_valid = false;  // rotations are optimal for `positions`
@@ -145,6 +145,7 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
   next->options = options;
   next->bound_weights = options.weights;
   next->mesh = build_bound_mesh(rest, triangles, constrained, options.weights);
+  next->bind_stats.mesh_ms = ms_since(start);
   next->triangles.resize(triangles.rows(), 3);
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)
     for (int k = 0; k < 3; ++k) next->triangles(f, k) = next->mesh.rank[triangles(f, k)];
@@ -163,7 +164,9 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
   next->rhs.assign(3 * nf, 0.0);
   next->work.assign(3 * nf, 0.0);
   next->bound = true;
-  next->bind_ms = ms_since(start);
+  next->bind_stats.ordering_ms = next->laplacian.ordering_ms();
+  next->bind_stats.factor_ms = next->laplacian.factor_ms();
+  next->bind_stats.total_ms = ms_since(start);
   impl_ = std::move(next);  // only a successful bind replaces the previous state
 }
 
@@ -248,7 +251,8 @@ bool Solver::is_bound() const { return impl_->bound; }
 int Solver::vertex_count() const { return impl_->mesh.n; }
 const std::vector<int>& Solver::constrained() const { return impl_->constrained_input; }
 const MeshReport& Solver::mesh_report() const { return impl_->mesh.report; }
-double Solver::bind_ms() const { return impl_->bind_ms; }
+double Solver::bind_ms() const { return impl_->bind_stats.total_ms; }
+const BindStats& Solver::bind_stats() const { return impl_->bind_stats; }
 long Solver::factor_nonzeros() const { return impl_->laplacian.nonzeros(); }
 
 double Solver::energy(const Eigen::Ref<const Points>& positions) const {

@@ -49,19 +49,31 @@ std::vector<WeightedEdge> edge_weights(
       entries.push_back({std::min(idx[a], idx[b]), std::max(idx[a], idx[b]), w});
     }
   }
-  std::sort(entries.begin(), entries.end());
-
+  // Group by the smaller index with a counting pass, then sort each small group by the larger.
+  const int n = static_cast<int>(rest.rows());
+  std::vector<int> group_begin(n + 1, 0);
+  for (const auto& e : entries) ++group_begin[e.i + 1];
+  for (int v = 0; v < n; ++v) group_begin[v + 1] += group_begin[v];
+  std::vector<EdgeEntry> grouped(entries.size());
+  {
+    std::vector<int> fill(group_begin.begin(), group_begin.end() - 1);
+    for (const auto& e : entries) grouped[fill[e.i]++] = e;
+  }
   std::vector<WeightedEdge> edges;
   edges.reserve(entries.size() / 2 + 1);
   int nonmanifold = 0;
-  for (size_t s = 0; s < entries.size();) {
-    size_t e = s;
-    double w = 0;
-    while (e < entries.size() && entries[e].i == entries[s].i && entries[e].j == entries[s].j) w += entries[e++].w;
-    if (e - s > 2) ++nonmanifold;
-    if (kind == Weights::Uniform) w = 1.0;
-    edges.push_back({entries[s].i, entries[s].j, w});
-    s = e;
+  for (int v = 0; v < n; ++v) {
+    auto first = grouped.begin() + group_begin[v], last = grouped.begin() + group_begin[v + 1];
+    std::sort(first, last);
+    for (auto s = first; s != last;) {
+      auto e = s;
+      double w = 0;
+      while (e != last && e->j == s->j) w += (e++)->w;
+      if (e - s > 2) ++nonmanifold;
+      if (kind == Weights::Uniform) w = 1.0;
+      edges.push_back({s->i, s->j, w});
+      s = e;
+    }
   }
   if (counts) {
     counts->degenerate_triangles = degenerate;

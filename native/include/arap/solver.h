@@ -36,6 +36,13 @@ struct SolveStats {
   long anderson_rejections = 0;       // accelerated steps refused by the energy safeguard
 };
 
+struct BindStats {
+  double total_ms = 0;
+  double mesh_ms = 0;      // checks, weights, components, vertex order, Laplacian assembly
+  double ordering_ms = 0;  // fill-reducing ordering (AMD) and symmetric permutation
+  double factor_ms = 0;    // numeric Cholesky factorization
+};
+
 class Solver {
  public:
   Solver();
@@ -72,6 +79,7 @@ class Solver {
   const std::vector<int>& constrained() const;
   const MeshReport& mesh_report() const;
   double bind_ms() const;
+  const BindStats& bind_stats() const;
   // Nonzeros of the Cholesky factor of the free block (memory and solve cost follow it).
   long factor_nonzeros() const;
 
