@@ -4,14 +4,30 @@
 
 namespace arap {
 
+namespace {
+
+// Runs body(i) for i in [0, n): serially for one thread, so that the single-thread
+// path never enters (or starts) the OpenMP runtime; returns the sum of the results.
+template <class Body>
+long for_each_vertex(int n, int threads, const Body& body) {
+  long sum = 0;
+  if (threads > 1) {
+#pragma omp parallel for schedule(static) num_threads(threads) reduction(+ : sum)
+    for (int i = 0; i < n; ++i) sum += body(i);
+  } else {
+    for (int i = 0; i < n; ++i) sum += body(i);
+  }
+  return sum;
+}
+
+}  // namespace
+
 double local_step(const BoundMesh& m, const double* P, Eigen::Matrix3d* R, double* cell_energy, int threads,
                   long* fallbacks) {
   const int* begin = m.spoke_begin.data();
   const int* neighbor = m.neighbor.data();
   const Spoke* spokes = m.spokes.data();
-  long fallback_count = 0;
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1) reduction(+ : fallback_count)
-  for (int i = 0; i < m.n; ++i) {
+  const long fallback_count = for_each_vertex(m.n, threads, [&](int i) -> long {
     const double px = P[3 * i], py = P[3 * i + 1], pz = P[3 * i + 2];
     double a00 = 0, a01 = 0, a02 = 0, a10 = 0, a11 = 0, a12 = 0, a20 = 0, a21 = 0, a22 = 0, deformed = 0;
     for (int k = begin[i]; k < begin[i + 1]; ++k) {
@@ -25,9 +41,10 @@ double local_step(const BoundMesh& m, const double* P, Eigen::Matrix3d* R, doubl
     }
     Eigen::Matrix3d A;
     A << a00, a01, a02, a10, a11, a12, a20, a21, a22;
-    fallback_count += fit_rotation(A, R[i]);
+    const bool fell_back = fit_rotation(A, R[i]);
     cell_energy[i] = deformed + m.rest_spoke_energy[i] - 2.0 * R[i].cwiseProduct(A).sum();
-  }
+    return fell_back ? 1 : 0;
+  });
   if (fallbacks) *fallbacks += fallback_count;
   double total = 0;
   for (int i = 0; i < m.n; ++i) total += cell_energy[i];
@@ -36,8 +53,7 @@ double local_step(const BoundMesh& m, const double* P, Eigen::Matrix3d* R, doubl
 
 void assemble_rhs(const BoundMesh& m, const Eigen::Matrix3d* R, const double* coupled, double* rhs, int threads) {
   const int nf = static_cast<int>(m.free_vertices.size());
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
-  for (int r = 0; r < nf; ++r) {
+  for_each_vertex(nf, threads, [&](int r) -> long {
     const int i = m.free_vertices[r];
     Eigen::Vector3d b = R[i] * Eigen::Vector3d(m.g_sum[3 * i], m.g_sum[3 * i + 1], m.g_sum[3 * i + 2]);
     for (int k = m.spoke_begin[i]; k < m.spoke_begin[i + 1]; ++k) {
@@ -47,7 +63,8 @@ void assemble_rhs(const BoundMesh& m, const Eigen::Matrix3d* R, const double* co
     rhs[3 * r] = 0.5 * b.x() + coupled[3 * r];
     rhs[3 * r + 1] = 0.5 * b.y() + coupled[3 * r + 1];
     rhs[3 * r + 2] = 0.5 * b.z() + coupled[3 * r + 2];
-  }
+    return 0;
+  });
 }
 
 void energy_gradient(const BoundMesh& m, const double* P, const Eigen::Matrix3d* R, double* gradient) {
