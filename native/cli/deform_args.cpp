@@ -1,0 +1,161 @@
+#include "deform_args.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+
+#include "arap/mesh_io.h"
+
+namespace arap::cli {
+
+const char* const kDeformUsage = R"(Usage:
+  arap-deform --scenario S.json [--iterations N] [options] --output OUT.off [--report R.json]
+  arap-deform INPUT.obj [--fixed fixed.txt] --handle handle.txt --translate DX,DY,DZ
+              [--rotate AXIS,DEGREES] [--handle h2.txt --translate ...] ... [options] --output OUT.obj
+
+Deforms a mesh as-rigidly-as-possible (Sorkine & Alexa 2007): fixed vertices
+stay at rest, handle vertices move to their targets, the rest follows.
+
+Inputs:
+  --scenario S.json     scenario file: {"mesh": path relative to the JSON file,
+                        "fixed": [...], "handles": [{"vertices": [...],
+                        "matrix": 4x4 row-major affine, "translate": [x,y,z]}]};
+                        handle target = matrix * rest + translate
+  INPUT                 mesh (.off .obj .ply .stl); every face is kept, polygons
+                        are fan-triangulated for the solver and written as given
+  --fixed FILE          whitespace-separated 0-based vertex indices held at rest
+  --handle FILE         vertex indices moved rigidly by the flags that follow it:
+  --translate DX,DY,DZ    translation of the current handle (default 0,0,0)
+  --rotate AXIS,DEG       rotation about x, y or z through the handle's rest
+                          centroid, applied before the translation
+  A vertex that is both fixed and in a handle stays FIXED (fixed wins; a
+  warning is printed). A vertex in two handles is an error.
+
+Solver options:
+  --iterations N        local/global iterations (default 10)
+  --tolerance T         stop when the energy drops by <= T * E (default 1e-6; 0 = never)
+  --init NAME           first guess: differential | naive | laplacian (default naive)
+  --weights NAME        cotan | cotan-clamped | uniform (default cotan-clamped)
+  --threads K           worker threads (default 1)
+  --anderson M          Anderson acceleration window (default 0 = off)
+
+Output:
+  --output OUT          result mesh (.off .obj .ply), same faces as the input
+  --report R.json       timings, energies per iteration and mesh checks
+  --quiet               no per-iteration energy log on stdout
+  --help                this text
+
+Exit status: 0 on success; 2 on bad input (arguments, unreadable or malformed
+files, out-of-range indices, non-finite targets), with one line on stderr and
+no output or report file written; 1 on an internal error.
+)";
+
+namespace {
+
+double parse_number(const std::string& flag, const std::string& s) {
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v))
+    throw UsageError(flag + " expects a finite number, got '" + s + "'");
+  return v;
+}
+
+int parse_int(const std::string& flag, const std::string& s, int min_value) {
+  char* end = nullptr;
+  const long v = std::strtol(s.c_str(), &end, 10);
+  if (s.empty() || end != s.c_str() + s.size() || v < min_value || v > 1000000000)
+    throw UsageError(flag + " expects an integer >= " + std::to_string(min_value) + ", got '" + s + "'");
+  return static_cast<int>(v);
+}
+
+std::vector<std::string> split_commas(const std::string& s) {
+  std::vector<std::string> parts;
+  std::stringstream ss(s);
+  std::string part;
+  while (std::getline(ss, part, ',')) parts.push_back(part);
+  if (!s.empty() && s.back() == ',') parts.push_back("");
+  return parts;
+}
+
+Eigen::Vector3d parse_vector(const std::string& flag, const std::string& s) {
+  const auto parts = split_commas(s);
+  if (parts.size() != 3) throw UsageError(flag + " expects DX,DY,DZ, got '" + s + "'");
+  return {parse_number(flag, parts[0]), parse_number(flag, parts[1]), parse_number(flag, parts[2])};
+}
+
+}  // namespace
+
+DeformArgs parse_deform_args(int argc, const char* const* argv) {
+  DeformArgs a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw UsageError(arg + " needs a value");
+      return argv[++i];
+    };
+    auto current_handle = [&]() -> HandleArg& {
+      if (a.handles.empty()) throw UsageError(arg + " must follow a --handle FILE");
+      return a.handles.back();
+    };
+    if (arg == "--help" || arg == "-h") {
+      a.help = true;
+    } else if (arg == "--scenario") {
+      a.scenario = value();
+    } else if (arg == "--fixed") {
+      if (!a.fixed_file.empty()) throw UsageError("--fixed given twice");
+      a.fixed_file = value();
+    } else if (arg == "--handle") {
+      a.handles.push_back(HandleArg{value()});
+    } else if (arg == "--translate") {
+      HandleArg& h = current_handle();
+      h.translate = parse_vector(arg, value());
+    } else if (arg == "--rotate") {
+      HandleArg& h = current_handle();
+      const std::string v = value();
+      const auto parts = split_commas(v);
+      if (parts.size() != 2 || parts[0].size() != 1 || parts[0].find_first_of("xyz") != 0)
+        throw UsageError("--rotate expects AXIS,DEGREES with AXIS x, y or z, got '" + v + "'");
+      h.rotate_axis = parts[0][0] - 'x';
+      h.rotate_degrees = parse_number(arg, parts[1]);
+    } else if (arg == "--iterations") {
+      a.options.max_iterations = parse_int(arg, value(), 1);
+    } else if (arg == "--tolerance") {
+      a.options.tolerance = parse_number(arg, value());
+      if (a.options.tolerance < 0) throw UsageError("--tolerance must be >= 0");
+    } else if (arg == "--init") {
+      a.options.init = parse_initial_guess(value());
+      if (a.options.init == InitialGuess::WarmStart) throw UsageError("--init warm makes no sense for a single solve");
+    } else if (arg == "--weights") {
+      a.options.weights = parse_weights(value());
+    } else if (arg == "--threads") {
+      a.options.threads = parse_int(arg, value(), 1);
+    } else if (arg == "--anderson") {
+      a.options.anderson_window = parse_int(arg, value(), 0);
+    } else if (arg == "--output" || arg == "-o") {
+      a.output = value();
+    } else if (arg == "--report") {
+      a.report = value();
+    } else if (arg == "--quiet" || arg == "-q") {
+      a.quiet = true;
+    } else if (arg.size() > 1 && arg[0] == '-') {
+      throw UsageError("unknown option '" + arg + "'");
+    } else {
+      if (!a.input.empty()) throw UsageError("more than one input mesh ('" + a.input + "', '" + arg + "')");
+      a.input = arg;
+    }
+  }
+  if (a.help) return a;
+  if (a.scenario.empty() == a.input.empty()) throw UsageError("give either --scenario S.json or an INPUT mesh");
+  if (!a.scenario.empty() && (!a.fixed_file.empty() || !a.handles.empty()))
+    throw UsageError("--fixed/--handle cannot be combined with --scenario");
+  if (!a.input.empty() && a.fixed_file.empty() && a.handles.empty())
+    throw UsageError("an INPUT mesh needs --fixed and/or --handle constraints");
+  if (a.output.empty()) throw UsageError("--output is required");
+  const std::string ext = io::extension_of(a.output);
+  if (ext != "off" && ext != "obj" && ext != "ply")
+    throw UsageError("--output must end in .off, .obj or .ply, got '" + a.output + "'");
+  if (!a.report.empty() && a.report == a.output) throw UsageError("--report and --output name the same file");
+  return a;
+}
+
+}  // namespace arap::cli

@@ -1,0 +1,50 @@
+#include "deform_report.h"
+
+#include "arap/version.h"
+
+namespace arap::cli {
+
+nlohmann::json make_report(const RunInfo& run, const Solver& solver, const SolveStats& stats) {
+  const MeshReport& m = solver.mesh_report();
+  const Options& o = solver.options();
+  nlohmann::json r;
+  r["version"] = version();
+  r["mesh"] = run.mesh_path;
+  r["vertices"] = run.vertices;
+  r["faces"] = run.faces;
+  r["triangles"] = run.triangles;
+  r["fixed_vertices"] = run.fixed;
+  r["handle_vertices"] = run.handle_vertices;
+  r["weights"] = to_string(o.weights);
+  r["init"] = to_string(o.init);
+  r["max_iterations"] = o.max_iterations;
+  r["tolerance"] = o.tolerance;
+  r["threads"] = o.threads;
+  r["anderson_window"] = o.anderson_window;
+
+  r["iterations"] = stats.iterations;
+  r["converged"] = stats.converged;
+  r["initial_energy"] = stats.initial_energy;
+  r["energy"] = stats.energy;
+  r["iteration_ms"] = stats.iteration_ms;
+  r["read_ms"] = run.read_ms;
+  r["precompute_ms"] = run.precompute_ms;
+  r["init_ms"] = stats.init_ms;
+  r["rotation_ms"] = stats.rotation_ms;
+  r["rhs_ms"] = stats.rhs_ms;
+  r["solve_ms"] = stats.linear_solve_ms;
+  r["total_ms"] = run.total_ms;
+  r["rotation_fallbacks"] = stats.rotation_fallbacks;
+  r["anderson_rejections"] = stats.anderson_rejections;
+  r["factor_nonzeros"] = solver.factor_nonzeros();
+
+  r["degenerate_triangles"] = m.degenerate_triangles;
+  r["isolated_vertices"] = m.isolated_vertices;
+  r["components"] = m.components;
+  r["unconstrained_components"] = m.unconstrained_components;
+  r["unconstrained_vertices"] = m.unconstrained_vertices;
+  r["nonmanifold_edges"] = m.nonmanifold_edges;
+  return r;
+}
+
+}  // namespace arap::cli

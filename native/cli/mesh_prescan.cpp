@@ -1,0 +1,341 @@
+#include "mesh_prescan.h"
+
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string_view>
+#include <vector>
+
+#include "arap/mesh_io.h"
+
+namespace arap::io::detail {
+namespace {
+
+[[noreturn]] void fail(const std::string& path, const std::string& what) { throw FileError(path + ": " + what); }
+
+// Whitespace tokens of a text, with line awareness.
+class Cursor {
+ public:
+  explicit Cursor(std::string_view text) : text_(text) {}
+  bool at_end() const { return pos_ >= text_.size(); }
+  std::string_view next() {
+    while (pos_ < text_.size() && is_space(text_[pos_])) ++pos_;
+    size_t start = pos_;
+    while (pos_ < text_.size() && !is_space(text_[pos_])) ++pos_;
+    return text_.substr(start, pos_ - start);
+  }
+  std::string_view line() {
+    size_t start = pos_;
+    while (pos_ < text_.size() && text_[pos_] != '\n') ++pos_;
+    std::string_view l = text_.substr(start, pos_ - start);
+    if (pos_ < text_.size()) ++pos_;
+    return l;
+  }
+  void skip_line() { line(); }
+  size_t remaining() const { return text_.size() - pos_; }
+
+ private:
+  static bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
+  std::string_view text_;
+  size_t pos_ = 0;
+};
+
+// Non-negative decimal integer of at most 18 digits, or -1.
+long long parse_count(std::string_view t) {
+  if (t.empty() || t.size() > 18) return -1;
+  long long v = 0;
+  for (char c : t) {
+    if (c < '0' || c > '9') return -1;
+    v = v * 10 + (c - '0');
+  }
+  return v;
+}
+
+bool parse_finite(std::string_view t, double& out) {
+  if (t.empty() || t.size() > 64) return false;
+  std::string s(t);
+  char* end = nullptr;
+  out = std::strtod(s.c_str(), &end);
+  return end == s.c_str() + s.size() && std::isfinite(out);
+}
+
+std::string shown(std::string_view t) {
+  std::string s(t.substr(0, 20));
+  for (char& c : s)
+    if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) > 126) c = '?';
+  return "'" + s + "'";
+}
+
+std::string read_all(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(path, "cannot open the file");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+Expected scan_off(const std::string& path, const std::string& data) {
+  Cursor c(data);
+  std::string_view header = c.line();
+  Cursor h(header);
+  std::string_view magic = h.next();
+  if (magic.size() < 3 || magic.substr(magic.size() - 3) != "OFF") fail(path, "not an OFF file (no OFF header line)");
+  if (magic.find('4') != std::string_view::npos || magic.find('n') != std::string_view::npos)
+    fail(path, "4D/nD OFF variants are not supported");
+  std::string_view rest = h.next();
+  if (rest == "BINARY") fail(path, "binary OFF is not supported");
+  if (!rest.empty()) fail(path, "counts on the OFF header line are not supported (put them on the next line)");
+  const long long nv = parse_count(c.next()), nf = parse_count(c.next()), ne = parse_count(c.next());
+  if (nv < 0 || nf < 0 || ne < 0) fail(path, "malformed OFF counts line (expected '#vertices #faces #edges')");
+  // Smallest possible records: "0 0 0\n" and "3 0 0 0\n".
+  if (nv * 5 + nf * 7 > static_cast<long long>(data.size()))
+    fail(path, "OFF header claims " + std::to_string(nv) + " vertices and " + std::to_string(nf) +
+                   " faces, more than a " + std::to_string(data.size()) + "-byte file can hold");
+  c.skip_line();
+  std::vector<double> coordinates;
+  coordinates.reserve(3 * static_cast<size_t>(nv));
+  for (long long i = 0; i < nv; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      std::string_view t = c.next();
+      double x;
+      if (t.empty()) fail(path, "truncated: the file ends in vertex " + std::to_string(i));
+      if (!parse_finite(t, x))
+        fail(path, "vertex " + std::to_string(i) + ": coordinate " + shown(t) + " is not a finite number");
+      coordinates.push_back(x);
+    }
+    c.skip_line();  // normals, colours, texture coordinates
+  }
+  for (long long f = 0; f < nf; ++f) {
+    std::string_view t = c.next();
+    if (t.empty()) fail(path, "truncated: the file ends before face " + std::to_string(f));
+    const long long k = parse_count(t);
+    if (k < 3 || k > static_cast<long long>(c.remaining()))
+      fail(path, "face " + std::to_string(f) + ": bad vertex count " + shown(t));
+    for (long long j = 0; j < k; ++j) {
+      std::string_view ti = c.next();
+      if (ti.empty()) fail(path, "truncated: the file ends in face " + std::to_string(f));
+      const long long idx = parse_count(ti);
+      if (idx < 0 || idx >= nv)
+        fail(path,
+             "face " + std::to_string(f) + ": vertex index " + shown(ti) + " outside [0, " + std::to_string(nv) + ")");
+    }
+    // OpenMesh's OFF reader does not consume per-face colours: it would read
+    // them as the next face's size and indices.
+    if (!Cursor(c.line()).next().empty())
+      fail(path, "face " + std::to_string(f) + ": values after the vertex indices (face colours are not supported)");
+  }
+  return {nv, nf, std::move(coordinates)};
+}
+
+// PLY: header, then a walk over every element so that no count is trusted.
+struct PlyProperty {
+  int size = 0;        // bytes of the scalar (or of the list items)
+  int count_size = 0;  // bytes of the list count; 0 for scalars
+  bool count_signed = false;
+  bool coordinate = false;  // x, y or z of a vertex
+};
+struct PlyElement {
+  std::string name;
+  long long count = 0;
+  std::vector<PlyProperty> properties;
+};
+
+int ply_type_size(std::string_view t) {
+  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+  if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
+  if (t == "double" || t == "float64") return 8;
+  return 0;
+}
+
+long long read_binary_count(const unsigned char* p, int size, bool is_signed, bool big_endian) {
+  unsigned long long v = 0;
+  for (int i = 0; i < size; ++i)
+    v |= static_cast<unsigned long long>(p[big_endian ? i : size - 1 - i]) << (8 * (size - 1 - i));
+  if (is_signed && size < 8 && (v >> (8 * size - 1))) return -1;
+  return static_cast<long long>(v);
+}
+
+Expected scan_ply(const std::string& path, const std::string& data) {
+  Cursor c(data);
+  // The header is checked strictly: OpenMesh's PLY header parser loops
+  // forever once a numeric field (version, element count) fails to parse.
+  auto trimmed = [](std::string_view l) { return l.substr(0, l.find_last_not_of(" \t\r") + 1); };
+  if (trimmed(c.line()) != "ply") fail(path, "not a PLY file (no 'ply' magic line)");
+  std::string format;
+  std::vector<PlyElement> elements;
+  bool ended = false;
+  for (int line_no = 2; !c.at_end() && !ended; ++line_no) {
+    std::string_view text = c.line();
+    Cursor l(text);
+    std::vector<std::string_view> tok;
+    for (std::string_view t = l.next(); !t.empty(); t = l.next()) tok.push_back(t);
+    const std::string bad = "malformed PLY header line " + std::to_string(line_no) + " " + shown(text);
+    if (tok.empty() || tok[0] == "comment" || tok[0] == "obj_info") continue;
+    double version;
+    if (tok[0] == "format") {
+      if (tok.size() != 3 || !parse_finite(tok[2], version)) fail(path, bad);
+      format = std::string(tok[1]);
+    } else if (tok[0] == "element") {
+      if (tok.size() != 3) fail(path, bad);
+      PlyElement e;
+      e.name = std::string(tok[1]);
+      e.count = parse_count(tok[2]);
+      if (e.count < 0 || e.count > 0xffffffffLL) fail(path, bad);
+      elements.push_back(e);
+    } else if (tok[0] == "property") {
+      if (elements.empty()) fail(path, "PLY property before any element");
+      PlyProperty p;
+      const bool list = tok.size() == 5 && tok[1] == "list";
+      if (!list && tok.size() != 3) fail(path, bad);
+      if (list) {
+        p.count_size = ply_type_size(tok[2]);
+        p.count_signed = tok[2] == "char" || tok[2] == "short" || tok[2].substr(0, 3) == "int";
+        if (p.count_size == 0) fail(path, bad);
+      }
+      p.size = ply_type_size(tok[list ? 3 : 1]);
+      if (p.size == 0) fail(path, bad);
+      const std::string_view name = tok.back();
+      p.coordinate = elements.back().name == "vertex" && (name == "x" || name == "y" || name == "z");
+      elements.back().properties.push_back(p);
+    } else if (tok[0] == "end_header" && tok.size() == 1) {
+      ended = true;
+    } else {
+      fail(path, bad);
+    }
+  }
+  if (!ended) fail(path, "PLY header has no end_header");
+  const bool ascii = format == "ascii";
+  const bool big = format == "binary_big_endian";
+  if (!ascii && !big && format != "binary_little_endian") fail(path, "unknown PLY format " + shown(format));
+  Expected expected;
+  const long long body = static_cast<long long>(c.remaining());
+  long long claimed = 0;
+  for (const PlyElement& e : elements) {
+    if (e.properties.empty() && e.count > 0) fail(path, "PLY element '" + e.name + "' has no properties");
+    claimed += e.count;
+    if (claimed > body)
+      fail(path, "PLY header claims more elements than a " + std::to_string(data.size()) + "-byte file can hold");
+    if (e.name == "vertex") expected.vertices = e.count;
+    if (e.name == "face") expected.faces = e.count;
+  }
+  const size_t start = data.size() - c.remaining();
+  if (ascii) {
+    for (const PlyElement& e : elements) {
+      for (long long i = 0; i < e.count; ++i) {
+        for (const PlyProperty& p : e.properties) {
+          long long n = 1;
+          if (p.count_size) {
+            std::string_view t = c.next();
+            n = parse_count(t);
+            if (n < 0 || n > static_cast<long long>(c.remaining()))
+              fail(path, e.name + " " + std::to_string(i) + ": bad list length " + shown(t));
+          }
+          for (long long j = 0; j < n; ++j) {
+            std::string_view t = c.next();
+            if (t.empty()) fail(path, "truncated: the file ends in " + e.name + " " + std::to_string(i));
+            double x;
+            if (p.coordinate && !parse_finite(t, x))
+              fail(path, "vertex " + std::to_string(i) + ": coordinate " + shown(t) + " is not a finite number");
+            if (p.coordinate) expected.coordinates.push_back(x);
+          }
+        }
+      }
+    }
+    return expected;
+  }
+  size_t pos = start;
+  const auto* bytes = reinterpret_cast<const unsigned char*>(data.data());
+  for (const PlyElement& e : elements) {
+    for (long long i = 0; i < e.count; ++i) {
+      for (const PlyProperty& p : e.properties) {
+        long long n = 1;
+        if (p.count_size) {
+          if (pos + p.count_size > data.size())
+            fail(path, "truncated: the file ends in " + e.name + " " + std::to_string(i));
+          n = read_binary_count(bytes + pos, p.count_size, p.count_signed, big);
+          pos += p.count_size;
+          if (n < 0 || n > static_cast<long long>(data.size() - pos) / p.size)
+            fail(path, e.name + " " + std::to_string(i) + ": bad list length " + std::to_string(n));
+        }
+        if (pos + n * p.size > data.size())
+          fail(path, "truncated: the file ends in " + e.name + " " + std::to_string(i));
+        pos += n * p.size;
+      }
+    }
+  }
+  return expected;
+}
+
+// OpenMesh's OBJ reader opens the material library named by `mtllib`
+// (relative to the OBJ's folder) and reads it to the end: a name such as
+// ../../dev/urandom or a FIFO would hang it. Only regular files (or missing
+// ones, which OpenMesh skips) are allowed.
+void check_material_library(const std::string& path, std::string name) {
+  namespace fs = std::filesystem;
+  while (!name.empty() && std::isspace(static_cast<unsigned char>(name.front()))) name.erase(0, 1);
+  while (!name.empty() && std::isspace(static_cast<unsigned char>(name.back()))) name.pop_back();
+  if (name.empty()) return;
+  for (const fs::path& candidate : {fs::path(path).parent_path() / name, fs::path(name)}) {
+    std::error_code ec;
+    const fs::file_status st = fs::status(candidate, ec);
+    if (!ec && fs::exists(st) && !fs::is_regular_file(st))
+      fail(path, "mtllib " + shown(name) + " is not a regular file");
+  }
+}
+
+Expected scan_obj(const std::string& path, const std::string& data) {
+  Cursor c(data);
+  Expected expected{0, 0};
+  for (long long line_no = 1; !c.at_end(); ++line_no) {
+    Cursor l(c.line());
+    std::string_view key = l.next();
+    if (key == "v") {
+      for (int k = 0; k < 3; ++k) {
+        std::string_view t = l.next();
+        double x;
+        if (!parse_finite(t, x))
+          fail(path, "line " + std::to_string(line_no) + ": vertex coordinate " + shown(t) + " is not a finite number");
+        expected.coordinates.push_back(x);
+      }
+      ++expected.vertices;
+    } else if (key == "f") {
+      ++expected.faces;
+    } else if (key == "mtllib") {
+      check_material_library(path, std::string(l.line()));
+    }
+  }
+  return expected;
+}
+
+Expected scan_stl(const std::string& path, const std::string& data) {
+  if (data.size() >= 84) {
+    unsigned long long n = 0;
+    for (int i = 0; i < 4; ++i)
+      n |= static_cast<unsigned long long>(static_cast<unsigned char>(data[80 + i])) << (8 * i);
+    if (84 + 50 * n == data.size()) return {-1, static_cast<long long>(n)};  // binary
+  }
+  Cursor c(data);
+  if (c.next() != "solid")
+    fail(path, "neither a binary STL (its size does not match its triangle count) nor an ASCII STL ('solid')");
+  if (data.find("endsolid") == std::string::npos) fail(path, "truncated ASCII STL (no 'endsolid')");
+  Expected expected{-1, 0};
+  for (std::string_view t = c.next(); !t.empty(); t = c.next()) expected.faces += t == "endfacet";
+  return expected;
+}
+
+}  // namespace
+
+Expected prescan(const std::string& path, const std::string& ext, std::uintmax_t /*size*/) {
+  const std::string data = read_all(path);
+  if (ext == "off") return scan_off(path, data);
+  if (ext == "ply") return scan_ply(path, data);
+  if (ext == "obj") return scan_obj(path, data);
+  if (ext == "stl") return scan_stl(path, data);
+  fail(path, "unsupported format '." + ext + "' (expected .off, .obj, .ply or .stl)");
+}
+
+}  // namespace arap::io::detail

@@ -1,0 +1,182 @@
+#include "arap/scenario.h"
+
+#include <array>
+#include <climits>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <unordered_map>
+
+#include "arap/errors.h"
+#include "arap/mesh_io.h"
+
+namespace arap::io {
+namespace {
+
+using nlohmann::json;
+
+[[noreturn]] void invalid(const std::string& path, const std::string& what) {
+  throw Error(ErrorCode::InvalidInput, path + ": " + what);
+}
+
+std::vector<int> index_list(const std::string& path, const json& j, const std::string& where) {
+  if (!j.is_array()) invalid(path, where + " must be a list of vertex indices");
+  std::vector<int> out;
+  out.reserve(j.size());
+  for (const json& v : j) {
+    if (!v.is_number_integer()) invalid(path, where + " holds " + v.dump() + ", not an integer vertex index");
+    const long long i = v.get<long long>();
+    if (i < INT_MIN || i > INT_MAX)
+      throw Error(ErrorCode::IndexOutOfRange, path + ": " + where + " holds the index " + std::to_string(i));
+    out.push_back(static_cast<int>(i));
+  }
+  return out;
+}
+
+// Devices and FIFOs (/dev/zero, a pipe) would be read forever.
+void require_regular_file(const std::string& path, const std::string& what) {
+  std::error_code ec;
+  const auto st = std::filesystem::status(path, ec);
+  if (ec || !std::filesystem::exists(st)) throw FileError(path + ": cannot open the " + what + " (no such file)");
+  if (!std::filesystem::is_regular_file(st)) throw FileError(path + ": the " + what + " is not a regular file");
+  if (std::filesystem::file_size(path, ec) > (std::uintmax_t(1) << 30) || ec)
+    throw FileError(path + ": the " + what + " is larger than 1 GiB");
+}
+
+double number(const std::string& path, const json& j, const std::string& where) {
+  if (!j.is_number()) invalid(path, where + " holds " + j.dump() + ", not a number");
+  return j.get<double>();
+}
+
+Eigen::Matrix4d read_matrix(const std::string& path, const json& j, const std::string& where) {
+  // Accepted as 16 numbers (row-major) or as 4 rows of 4.
+  std::vector<double> flat;
+  if (j.is_array() && j.size() == 4 && j[0].is_array()) {
+    for (const json& row : j) {
+      if (!row.is_array() || row.size() != 4) invalid(path, where + " must be 4 rows of 4 numbers");
+      for (const json& x : row) flat.push_back(number(path, x, where));
+    }
+  } else if (j.is_array() && j.size() == 16) {
+    for (const json& x : j) flat.push_back(number(path, x, where));
+  } else {
+    invalid(path, where + " must be a 4x4 matrix (16 numbers, row-major)");
+  }
+  Eigen::Matrix4d m;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) m(r, c) = flat[4 * r + c];
+  if (m(3, 0) != 0 || m(3, 1) != 0 || m(3, 2) != 0 || m(3, 3) != 1)
+    invalid(path, where + " is not affine (its last row must be 0 0 0 1)");
+  return m;
+}
+
+}  // namespace
+
+Scenario load_scenario(const std::string& json_path) {
+  require_regular_file(json_path, "scenario file");
+  std::ifstream in(json_path);
+  if (!in) throw FileError(json_path + ": cannot open the scenario file");
+  json doc;
+  try {
+    doc = json::parse(in);
+  } catch (const json::exception& e) {
+    throw FileError(json_path + ": not valid JSON (" + std::string(e.what()) + ")");
+  }
+  if (!doc.is_object()) invalid(json_path, "the scenario must be a JSON object");
+  Scenario s;
+  if (doc.contains("name") && doc["name"].is_string()) s.name = doc["name"].get<std::string>();
+  if (!doc.contains("mesh") || !doc["mesh"].is_string()) invalid(json_path, "\"mesh\" (a path) is missing");
+  const std::filesystem::path mesh = doc["mesh"].get<std::string>();
+  s.mesh_path = mesh.is_absolute() ? mesh.string() : (std::filesystem::path(json_path).parent_path() / mesh).string();
+  if (doc.contains("fixed")) s.fixed = index_list(json_path, doc["fixed"], "\"fixed\"");
+  if (doc.contains("handles")) {
+    const json& hs = doc["handles"];
+    if (!hs.is_array()) invalid(json_path, "\"handles\" must be a list");
+    for (std::size_t k = 0; k < hs.size(); ++k) {
+      const std::string where = "handle " + std::to_string(k);
+      const json& h = hs[k];
+      if (!h.is_object() || !h.contains("vertices")) invalid(json_path, where + " has no \"vertices\"");
+      Handle handle;
+      handle.vertices = index_list(json_path, h["vertices"], where + " \"vertices\"");
+      if (h.contains("matrix")) handle.matrix = read_matrix(json_path, h["matrix"], where + " \"matrix\"");
+      if (h.contains("translate")) {
+        const json& t = h["translate"];
+        if (!t.is_array() || t.size() != 3) invalid(json_path, where + " \"translate\" must be 3 numbers");
+        for (int c = 0; c < 3; ++c) handle.translate[c] = number(json_path, t[c], where + " \"translate\"");
+      }
+      s.handles.push_back(std::move(handle));
+    }
+  }
+  return s;
+}
+
+std::vector<int> read_index_file(const std::string& path) {
+  require_regular_file(path, "index file");
+  std::ifstream in(path);
+  if (!in) throw FileError(path + ": cannot open the index file");
+  std::vector<int> out;
+  std::string token;
+  while (in >> token) {
+    long long v = 0;
+    bool ok = !token.empty() && token.size() <= 10;
+    for (char c : token) ok = ok && c >= '0' && c <= '9';
+    if (ok) v = std::stoll(token);
+    if (!ok || v > INT_MAX) throw FileError(path + ": '" + token.substr(0, 20) + "' is not a vertex index");
+    out.push_back(static_cast<int>(v));
+  }
+  return out;
+}
+
+Constraints build_constraints(const Points& rest, const std::vector<int>& fixed, const std::vector<Handle>& handles) {
+  const int n = static_cast<int>(rest.rows());
+  auto check = [n](int i, const std::string& where) {
+    if (i < 0 || i >= n)
+      throw Error(ErrorCode::IndexOutOfRange,
+                  where + " refers to vertex " + std::to_string(i) + ", outside [0, " + std::to_string(n) + ")");
+  };
+  Constraints c;
+  // owner: -1 fixed, k >= 0 handle k.
+  std::unordered_map<int, int> owner;
+  std::vector<std::array<double, 3>> targets;
+  for (int i : fixed) {
+    check(i, "a fixed vertex");
+    if (!owner.emplace(i, -1).second) continue;
+    c.indices.push_back(i);
+    targets.push_back({rest(i, 0), rest(i, 1), rest(i, 2)});
+  }
+  c.fixed_count = static_cast<int>(c.indices.size());
+  for (std::size_t k = 0; k < handles.size(); ++k) {
+    const Handle& h = handles[k];
+    const std::string where = "handle " + std::to_string(k);
+    int overridden = 0;
+    for (int i : h.vertices) {
+      check(i, where);
+      auto [it, inserted] = owner.emplace(i, static_cast<int>(k));
+      if (!inserted) {
+        if (it->second == -1) {
+          ++overridden;  // fixed wins
+        } else if (it->second != static_cast<int>(k)) {
+          throw Error(ErrorCode::DuplicateConstraint, "vertex " + std::to_string(i) + " is in handle " +
+                                                          std::to_string(it->second) + " and in " + where);
+        }
+        continue;
+      }
+      const Eigen::Vector3d p = rest.row(i).transpose();
+      const Eigen::Vector3d t = h.matrix.topLeftCorner<3, 3>() * p + h.matrix.topRightCorner<3, 1>() + h.translate;
+      if (!t.allFinite())
+        throw Error(ErrorCode::NonFinite, where + " moves vertex " + std::to_string(i) + " to a non-finite position");
+      c.indices.push_back(i);
+      targets.push_back({t[0], t[1], t[2]});
+    }
+    if (overridden > 0)
+      c.warnings.push_back("warning: " + std::to_string(overridden) + " vertices of " + where +
+                           " are also fixed; they stay fixed");
+  }
+  if (c.indices.empty()) throw Error(ErrorCode::NoConstraints, "no fixed or handle vertex given");
+  c.targets.resize(static_cast<Eigen::Index>(targets.size()), 3);
+  for (std::size_t r = 0; r < targets.size(); ++r)
+    for (int d = 0; d < 3; ++d) c.targets(static_cast<Eigen::Index>(r), d) = targets[r][d];
+  return c;
+}
+
+}  // namespace arap::io

@@ -1,0 +1,332 @@
+// Scenario parsing and the arap-deform command line, end to end on meshes
+// made here (never on ../shared).
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "arap/errors.h"
+#include "arap/mesh_io.h"
+#include "arap/procedural.h"
+#include "arap/scenario.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+class TempDir : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("arap_cli_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  std::string write(const std::string& name, const std::string& text) const {
+    std::ofstream(path(name), std::ios::binary) << text;
+    return path(name);
+  }
+  static std::string slurp(const std::string& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  }
+  // A 1 x 1 x 5 bar standing on z = 0: fixed.txt (bottom fifth) and handle.txt (top 5%).
+  arap::procedural::TriMesh make_bar_files(const std::string& mesh_name = "bar.obj") {
+    const auto bar = arap::procedural::make_bar(3, 3, 15, 1.0, 1.0, 5.0);
+    arap::io::write_mesh(path(mesh_name), bar.vertices, arap::io::to_polygons(bar.triangles));
+    const auto picked = arap::procedural::pick_by_height(bar.vertices);
+    fixed_ = picked.fixed;
+    handle_ = picked.handle;
+    write("fixed.txt", join(fixed_));
+    write("handle.txt", join(handle_));
+    return bar;
+  }
+  static std::string join(const std::vector<int>& v) {
+    std::string s;
+    for (int i : v) s += std::to_string(i) + " ";
+    return s + "\n";
+  }
+  fs::path dir_;
+  std::vector<int> fixed_, handle_;
+};
+
+// ---------------------------------------------------------------- scenarios
+
+using Scenario = TempDir;
+
+TEST_F(Scenario, ParsesMeshPathHandlesAndMatrices) {
+  write("s.json", R"({"name": "t", "mesh": "meshes/m.off", "fixed": [0, 1],
+    "handles": [{"vertices": [2], "translate": [1, 2, 3]},
+                {"vertices": [3], "matrix": [0,-1,0,5, 1,0,0,0, 0,0,1,0, 0,0,0,1]},
+                {"vertices": [4], "matrix": [[2,0,0,0],[0,2,0,0],[0,0,2,0],[0,0,0,1]], "translate": [0, 0, 1]}]})");
+  const arap::io::Scenario s = arap::io::load_scenario(path("s.json"));
+  EXPECT_EQ(s.name, "t");
+  EXPECT_EQ(fs::path(s.mesh_path), dir_ / "meshes/m.off");
+  EXPECT_EQ(s.fixed, (std::vector<int>{0, 1}));
+  ASSERT_EQ(s.handles.size(), 3u);
+
+  arap::Points rest(5, 3);
+  rest << 0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 1, 2, 3, 4;
+  const arap::io::Constraints c = arap::io::build_constraints(rest, s.fixed, s.handles);
+  EXPECT_EQ(c.indices, (std::vector<int>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(c.fixed_count, 2);
+  EXPECT_TRUE(c.warnings.empty());
+  EXPECT_EQ(c.targets.row(1), rest.row(1));                       // fixed: at rest
+  EXPECT_EQ(c.targets.row(2), Eigen::RowVector3d(1, 3, 3));       // translate
+  EXPECT_EQ(c.targets.row(3), Eigen::RowVector3d(-1 + 5, 1, 1));  // rotate z by 90 deg, then +5 x
+  EXPECT_EQ(c.targets.row(4), Eigen::RowVector3d(4, 6, 9));       // scale 2 then +1 z
+}
+
+TEST_F(Scenario, FixedWinsOverHandleWithAWarning) {
+  arap::Points rest = arap::Points::Random(4, 3);
+  arap::io::Handle h;
+  h.vertices = {1, 2, 3};
+  h.translate = Eigen::Vector3d(1, 0, 0);
+  const arap::io::Constraints c = arap::io::build_constraints(rest, {1, 1, 0}, {h});
+  EXPECT_EQ(c.indices, (std::vector<int>{1, 0, 2, 3}));  // repeats ignored, vertex 1 stays fixed
+  EXPECT_EQ(c.targets.row(0), rest.row(1));
+  ASSERT_EQ(c.warnings.size(), 1u);
+  EXPECT_NE(c.warnings[0].find("fixed"), std::string::npos);
+}
+
+TEST_F(Scenario, ErrorsAreTyped) {
+  const arap::Points rest = arap::Points::Zero(3, 3);
+  arap::io::Handle h;
+  h.vertices = {3};
+  try {
+    arap::io::build_constraints(rest, {0}, {h});
+    FAIL();
+  } catch (const arap::Error& e) {
+    EXPECT_EQ(e.code(), arap::ErrorCode::IndexOutOfRange);
+  }
+  h.vertices = {1};
+  arap::io::Handle h2 = h;
+  try {
+    arap::io::build_constraints(rest, {}, {h, h2});
+    FAIL();
+  } catch (const arap::Error& e) {
+    EXPECT_EQ(e.code(), arap::ErrorCode::DuplicateConstraint);
+  }
+  h.matrix(0, 0) = std::numeric_limits<double>::infinity();
+  try {
+    arap::io::build_constraints(rest, {}, {h});
+    FAIL();
+  } catch (const arap::Error& e) {
+    EXPECT_EQ(e.code(), arap::ErrorCode::NonFinite);
+  }
+  EXPECT_THROW(arap::io::build_constraints(rest, {}, {}), arap::Error);
+  EXPECT_THROW(arap::io::build_constraints(rest, {-1}, {}), arap::Error);
+}
+
+TEST_F(Scenario, MalformedFilesAreRefused) {
+  EXPECT_THROW(arap::io::load_scenario(path("missing.json")), arap::io::FileError);
+  EXPECT_THROW(arap::io::load_scenario(write("a.json", "{not json")), arap::io::FileError);
+  EXPECT_THROW(arap::io::load_scenario(write("b.json", R"({"fixed": [0]})")), arap::Error);  // no mesh
+  EXPECT_THROW(arap::io::load_scenario(write("c.json", R"({"mesh": "m.off", "fixed": [0.5]})")), arap::Error);
+  EXPECT_THROW(arap::io::load_scenario(write("d.json", R"({"mesh": "m.off", "handles": [{"vertices": [0],
+                 "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 1,0,0,1]}]})")),
+               arap::Error);  // not affine
+  EXPECT_THROW(arap::io::load_scenario(write("e.json", R"({"mesh": "m.off", "handles": [{"vertices": [0],
+                 "translate": [1, 2]}]})")),
+               arap::Error);
+  EXPECT_THROW(arap::io::read_index_file(write("i.txt", "1 2 x")), arap::io::FileError);
+  EXPECT_THROW(arap::io::read_index_file(write("j.txt", "1 -2")), arap::io::FileError);
+  EXPECT_EQ(arap::io::read_index_file(write("k.txt", " 3\n4\t5 \n")), (std::vector<int>{3, 4, 5}));
+}
+
+// ---------------------------------------------------------------- arap-deform
+
+#ifdef ARAP_DEFORM_EXE
+
+struct Result {
+  int code = -1;
+  std::string out, err;
+};
+
+class Cli : public TempDir {
+ protected:
+  Result run(const std::string& args) {
+    const std::string out = path("stdout.txt"), err = path("stderr.txt");
+    const std::string cmd = "cd '" + dir_.string() + "' && timeout 60 '" + ARAP_DEFORM_EXE + "' " + args + " >'" + out +
+                            "' 2>'" + err + "'";
+    const int status = std::system(cmd.c_str());
+    Result r;
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = slurp(out);
+    r.err = slurp(err);
+    fs::remove(out);
+    fs::remove(err);
+    return r;
+  }
+  // Exit 2, one line on stderr, no output, no report, no temporary left behind.
+  void expect_bad_input(const std::string& args) {
+    SCOPED_TRACE(args);
+    const Result r = run(args + " --output out.off --report report.json");
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(path("out.off")));
+    EXPECT_FALSE(fs::exists(path("report.json")));
+    for (const auto& entry : fs::directory_iterator(dir_))
+      EXPECT_EQ(entry.path().filename().string().find("arap-tmp"), std::string::npos) << entry.path();
+  }
+};
+
+TEST_F(Cli, BendsABarAndReports) {
+  const auto bar = make_bar_files();
+  const Result r =
+      run("bar.obj --fixed fixed.txt --handle handle.txt --translate 2,0,-1 --iterations 15 --tolerance 0 "
+          "--init naive --weights cotan --output bent.obj --report report.json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(r.err.empty()) << r.err;
+  EXPECT_NE(r.out.find("energy"), std::string::npos);
+
+  const json rep = json::parse(slurp(path("report.json")));
+  for (const char* key : {"vertices", "faces", "iterations", "energy", "initial_energy", "precompute_ms",
+                          "iteration_ms", "init_ms", "rotation_ms", "rhs_ms", "solve_ms", "converged",
+                          "degenerate_triangles", "isolated_vertices", "unconstrained_components", "nonmanifold_edges"})
+    EXPECT_TRUE(rep.contains(key)) << key;
+  EXPECT_EQ(rep["vertices"].get<int>(), bar.vertices.rows());
+  EXPECT_EQ(rep["faces"].get<int>(), bar.triangles.rows());
+  const int iterations = rep["iterations"].get<int>();
+  EXPECT_EQ(iterations, 15);
+  const auto energy = rep["energy"].get<std::vector<double>>();
+  ASSERT_EQ(static_cast<int>(energy.size()), iterations);
+  EXPECT_EQ(rep["iteration_ms"].size(), energy.size());
+  EXPECT_LT(energy.front(), rep["initial_energy"].get<double>());
+  for (std::size_t k = 1; k < energy.size(); ++k) EXPECT_LE(energy[k], energy[k - 1] * (1 + 1e-9)) << k;
+  EXPECT_LT(energy.back(), 0.9 * energy.front());
+  EXPECT_FALSE(rep["converged"].get<bool>());
+  EXPECT_EQ(rep["degenerate_triangles"].get<int>(), 0);
+  EXPECT_EQ(rep["nonmanifold_edges"].get<int>(), 0);
+  EXPECT_EQ(rep["unconstrained_components"].get<int>(), 0);
+
+  // Constraints met in the written file; same faces.
+  const arap::io::PolygonMesh out = arap::io::read_mesh(path("bent.obj"));
+  EXPECT_EQ(out.polygons, arap::io::to_polygons(bar.triangles));
+  const double tol = 1e-5;  // OpenMesh reads coordinates as float
+  for (int i : fixed_) EXPECT_LT((out.vertices.row(i) - bar.vertices.row(i)).norm(), tol) << i;
+  for (int i : handle_)
+    EXPECT_LT((out.vertices.row(i) - bar.vertices.row(i) - Eigen::RowVector3d(2, 0, -1)).norm(), tol) << i;
+  // The free middle moved.
+  EXPECT_GT((out.vertices - bar.vertices).rowwise().norm().maxCoeff(), 2.0 - 1e-6);
+}
+
+TEST_F(Cli, ScenarioWithMatrixHandleAndOverlapWarning) {
+  const auto bar = make_bar_files("bar.off");
+  // Rotate the top 90 degrees about z through the bar's axis (0.5, 0.5), and
+  // list one fixed vertex in the handle too: it must stay fixed.
+  json s = {{"mesh", "bar.off"},
+            {"fixed", fixed_},
+            {"handles", {{{"vertices", handle_}, {"matrix", {0, -1, 0, 1, 1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}}}}}};
+  s["handles"][0]["vertices"].push_back(fixed_[0]);
+  write("s.json", s.dump());
+  const Result r = run("--scenario s.json --iterations 5 --output twisted.off --quiet");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(r.out.empty());
+  EXPECT_NE(r.err.find("fixed"), std::string::npos);
+  const arap::io::PolygonMesh out = arap::io::read_mesh(path("twisted.off"));
+  for (int i : handle_) {
+    const Eigen::RowVector3d p = bar.vertices.row(i);
+    EXPECT_LT((out.vertices.row(i) - Eigen::RowVector3d(1 - p.y(), p.x(), p.z())).norm(), 1e-5) << i;
+  }
+  EXPECT_LT((out.vertices.row(fixed_[0]) - bar.vertices.row(fixed_[0])).norm(), 1e-9);
+}
+
+TEST_F(Cli, KeepsPolygonsAndRotatesHandles) {
+  // A 1 x 4 strip of quads (a flat ribbon), fixed at x = 0, turned at x = 4.
+  std::string off = "OFF\n10 4 0\n";
+  for (int i = 0; i <= 4; ++i) off += std::to_string(i) + " 0 0\n" + std::to_string(i) + " 1 0\n";
+  for (int i = 0; i < 4; ++i)
+    off += "4 " + std::to_string(2 * i) + " " + std::to_string(2 * i + 2) + " " + std::to_string(2 * i + 3) + " " +
+           std::to_string(2 * i + 1) + "\n";
+  write("ribbon.off", off);
+  write("f.txt", "0 1");
+  write("h.txt", "8 9");
+  const Result r = run("ribbon.off --fixed f.txt --handle h.txt --rotate x,90 --translate 0,0,0.5 --output r.ply -q");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const arap::io::PolygonMesh out = arap::io::read_mesh(path("r.ply"));
+  ASSERT_EQ(out.polygons.size(), 4u);
+  EXPECT_EQ(out.polygons[0], (std::vector<int>{0, 2, 3, 1}));
+  // Centroid of the handle (4, 0.5, 0); (4, 1, 0) turns to (4, 0.5, 0.5), then +0.5 z.
+  EXPECT_LT((out.vertices.row(9) - Eigen::RowVector3d(4, 0.5, 1.0)).norm(), 1e-5);
+  EXPECT_LT((out.vertices.row(8) - Eigen::RowVector3d(4, 0.5, 0.0)).norm(), 1e-5);
+}
+
+TEST_F(Cli, HelpExitsZero) {
+  const Result r = run("--help");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("fixed wins"), std::string::npos);
+}
+
+TEST_F(Cli, BadArgumentsExitTwo) {
+  make_bar_files();
+  write("out_of_range.txt", "0 1 100000");
+  write("empty.txt", "");
+  write("nan.json", R"({"mesh": "bar.obj", "fixed": [0],
+    "handles": [{"vertices": [1], "matrix": [1e999,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}]})");
+  write("range.json", R"({"mesh": "bar.obj", "fixed": [0, 99999]})");
+  write("nomesh.json", R"({"mesh": "nothere.obj", "fixed": [0]})");
+  const std::string ok = "--fixed fixed.txt --handle handle.txt --translate 1,0,0";
+  expect_bad_input("missing.obj " + ok);
+  expect_bad_input("bar.obj --fixed nothere.txt");
+  expect_bad_input("bar.obj " + ok + " --bogus");
+  expect_bad_input("bar.obj " + ok + " --iterations abc");
+  expect_bad_input("bar.obj " + ok + " --iterations 0");
+  expect_bad_input("bar.obj " + ok + " --weights nonsense");
+  expect_bad_input("bar.obj " + ok + " --init sideways");
+  expect_bad_input("bar.obj " + ok + " --tolerance nan");
+  expect_bad_input("bar.obj --fixed fixed.txt --translate 1,0,0");
+  expect_bad_input("bar.obj --fixed fixed.txt --handle handle.txt --translate 1,0");
+  expect_bad_input("bar.obj --fixed fixed.txt --handle handle.txt --rotate w,3");
+  expect_bad_input("bar.obj --fixed out_of_range.txt");
+  expect_bad_input("bar.obj --fixed fixed.txt --handle empty.txt");
+  expect_bad_input("bar.obj");
+  expect_bad_input("--scenario nan.json");
+  expect_bad_input("--scenario range.json");
+  expect_bad_input("--scenario nomesh.json");
+  expect_bad_input("--scenario missing.json");
+  expect_bad_input("--scenario nan.json bar.obj");
+  // Output format that cannot be written.
+  const Result r = run("bar.obj " + ok + " --output out.stl");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_FALSE(fs::exists(path("out.stl")));
+}
+
+TEST_F(Cli, HostileMeshFilesExitTwo) {
+  write("f.txt", "0");
+  write("h.txt", "1");
+  std::string junk;
+  for (int i = 0; i < 2000; ++i) junk.push_back(static_cast<char>((i * 31 + 7) % 256));
+  const std::vector<std::pair<std::string, std::string>> files = {
+      {"empty.off", ""},
+      {"junk.off", junk},
+      {"junk.ply", "ply\n" + junk},
+      {"junk.stl", junk},
+      {"huge.off", "OFF\n1000000000000 1 0\n0 0 0\n"},
+      {"truncated.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1"},
+      {"nan.off", "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n"},
+      {"range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n"},
+      {"nofaces.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"},
+  };
+  for (const auto& [name, bytes] : files) {
+    write(name, bytes);
+    expect_bad_input(name + " --fixed f.txt --handle h.txt --translate 0,0,1");
+  }
+}
+
+#endif  // ARAP_DEFORM_EXE
+
+}  // namespace
