@@ -35,7 +35,7 @@ case "$mode" in
     "$BUILD/arap-make-mesh" bar --vertices 2000 --output "$BUILD/demo_bar.obj" \
       --fixed-out "$BUILD/demo_fixed.txt" --handle-out "$BUILD/demo_handle.txt"
     "$BUILD/arap-deform" "$BUILD/demo_bar.obj" --fixed "$BUILD/demo_fixed.txt" \
-      --handle "$BUILD/demo_handle.txt" --translate 0,3,0 --iterations 20 --output "$BUILD/demo_bar_bent.obj"
+      --handle "$BUILD/demo_handle.txt" --translate 2,0,-1 --iterations 20 --output "$BUILD/demo_bar_bent.obj"
     if cmake --build "$BUILD" --target install_addon 2>/dev/null; then
       cmake --build "$BUILD" --target demo_blend
     fi

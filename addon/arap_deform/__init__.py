@@ -1,0 +1,43 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""ARAP Deform: pose a mesh as-rigidly-as-possible with handle empties.
+
+This file only registers. See engine.py for the native bridge, api.py for
+scripting, operators.py / ui.py / properties.py for the Blender side.
+"""
+
+bl_info = {
+    "name": "ARAP Deform",
+    "author": "ARAP Deform developers",
+    "version": (0, 1, 0),
+    "blender": (3, 4, 0),
+    "location": "3D Viewport > Sidebar > ARAP",
+    "description": "As-Rigid-As-Possible posing with vertex-group handles driven by empties",
+    "category": "Mesh",
+}
+
+if "bpy" in locals():
+    # Script reload (F3 > Reload Scripts): reload submodules in dependency order.
+    import importlib
+    for _name in ("meshio", "constraints", "engine", "api", "bake", "properties", "operators", "ui", "bake_ops"):
+        if _name in locals():
+            importlib.reload(locals()[_name])
+
+import bpy  # noqa: E402,F401 - its presence in locals() marks a reload
+
+from . import properties, operators, ui, bake_ops  # noqa: E402
+
+# Order matters: bake_ops' panel is a child of ui's ARAP_PT_main.
+_modules = (properties, operators, ui, bake_ops)
+
+
+def register():
+    for mod in _modules:
+        mod.register()
+
+
+def unregister():
+    from . import engine
+    engine.stop_all_sessions()
+    engine.clear_cache()
+    for mod in reversed(_modules):
+        mod.unregister()

@@ -1,0 +1,130 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Plain Python API of ARAP Deform, for scripts and --background runs.
+
+    import bpy
+    from arap_deform import api
+    obj = bpy.data.objects["Suzanne"]
+    api.set_fixed(obj, "feet")
+    api.add_handle(obj, "hand", bpy.data.objects["HandEmpty"])   # bind pose = the empty now
+    bpy.data.objects["HandEmpty"].location.z += 0.5
+    result = api.deform(obj, iterations=20)
+    print(result.energies, result.solve_ms)
+
+Rules:
+- Object Mode only (SetupError otherwise); errors leave the mesh untouched.
+- Rest shape: the basis shape key when writing to the "ARAP" shape key,
+  otherwise the "arap_rest" attribute (captured on the first write or by
+  set_rest_pose()).
+- Bind pose of an empty: its world matrix when the handle is added, and
+  again on reset() / set_rest_pose(). A handle's vertices follow the
+  empty's motion since then (full transform: move, rotate, scale).
+
+Errors: SetupError (set-up to change) and ArapError (from the native solver,
+e.g. NaN coordinates) are both subclasses of Exception with a readable message.
+"""
+
+import numpy as np
+
+from . import constraints, engine
+from .constraints import SetupError
+from .engine import DeformResult, LiveSession, NativeModuleError, SessionError  # noqa: F401
+
+__all__ = ("SetupError", "SessionError", "NativeModuleError", "DeformResult", "LiveSession", "settings",
+           "set_fixed", "add_handle", "remove_handle", "create_group", "deform", "bind", "set_rest_pose",
+           "reset", "start_session", "rest_positions", "ArapError")
+
+
+def __getattr__(name):
+    # api.ArapError: the native exception class, resolved when first asked for.
+    if name == "ArapError":
+        return engine.native_error_type()
+    raise AttributeError(name)
+
+
+def settings(obj):
+    """The object's ARAP settings (ARAP_PG_settings, saved in the .blend)."""
+    return obj.arap
+
+
+def create_group(obj, name, indices):
+    """New vertex group `name` holding vertex `indices` with weight 1."""
+    group = obj.vertex_groups.new(name=name)
+    group.add([int(i) for i in indices], 1.0, 'REPLACE')
+    return group
+
+
+def set_fixed(obj, group):
+    """Vertices of vertex group `group` (a name) stay at rest. "" clears it."""
+    if group and group not in obj.vertex_groups:
+        raise SetupError("Vertex group '%s' does not exist on '%s'" % (group, obj.name))
+    obj.arap.fixed_group = group
+
+
+def add_handle(obj, group, empty):
+    """Vertex group `group` follows Empty `empty`; its bind pose is captured now."""
+    if group not in obj.vertex_groups:
+        raise SetupError("Vertex group '%s' does not exist on '%s'" % (group, obj.name))
+    if empty is None or empty.type != 'EMPTY':
+        raise SetupError("A handle is driven by an Empty object")
+    item = obj.arap.handles.add()
+    item.group = group
+    item.empty = empty
+    constraints.capture_bind(item)
+    obj.arap.active_handle = len(obj.arap.handles) - 1
+    return item
+
+
+def remove_handle(obj, index):
+    """Remove handle number `index` (the empty and vertex group are kept)."""
+    handles = obj.arap.handles
+    if not 0 <= index < len(handles):
+        raise IndexError("no handle %d on '%s'" % (index, obj.name))
+    handles.remove(index)
+    obj.arap.active_handle = max(0, min(obj.arap.active_handle, len(handles) - 1))
+
+
+def bind(obj, scene=None):
+    """Check the set-up and bind the solver now (it is cached for deform()).
+
+    Returns the native mesh report (dict: components, unconstrained_vertices, ...).
+    """
+    problem = engine.Problem(obj, scene)
+    solver, _ms, _cached = engine.bound_solver(obj, problem.rest64, problem.tris, problem.setup.constrained,
+                                               problem.weights)
+    return solver.mesh_report()
+
+
+def deform(obj, iterations=None, tolerance=None, init=None, scene=None):
+    """Solve from the rest shape and write the result. Returns DeformResult.
+
+    iterations/tolerance/init (None: the object's settings; init is one of
+    'LAPLACIAN', 'DIFFERENTIAL', 'NAIVE'). `scene`, when given, is used to
+    detect empties deleted from it.
+    """
+    return engine.deform(obj, scene=scene, iterations=iterations, tolerance=tolerance, init=init)
+
+
+def set_rest_pose(obj):
+    """Take the current shape as rest and the empties' current poses as bind poses."""
+    engine.set_rest_pose(obj)
+
+
+def reset(obj):
+    """Put the rest shape back and capture the empties' bind poses again."""
+    engine.reset(obj)
+
+
+def start_session(obj, scene=None, iterations=None, write=True):
+    """A LiveSession: call .step() after moving empties, then .finish() or .cancel().
+
+    With write=False the mesh is never changed; read .positions() (flat float32,
+    object-local) after each step, e.g. to bake frames.
+    """
+    return LiveSession(obj, scene=scene, iterations=iterations, write=write)
+
+
+def rest_positions(obj):
+    """The rest shape used by the solver, float64 (n, 3), object-local."""
+    from . import meshio
+    mode = meshio.resolve_output(obj, obj.arap.output)
+    return meshio.rest_coords(obj, mode).astype(np.float64).reshape(-1, 3)

@@ -1,0 +1,393 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Bake ARAP poses over a frame range so that Blender plays them back natively.
+
+    from arap_deform import bake
+    result = bake.bake_shape_keys(obj, 1, 100)            # one shape key per frame
+    result = bake.bake_pc2(obj, "//pose.pc2", 1, 100)     # a point cache + Mesh Cache modifier
+    print(result.energies, result.iterations, result.ms)
+    bake.clear_bake(obj)                                  # back to the un-baked object
+
+Each frame: scene.frame_set(f), read the evaluated world matrices of the
+object and of the handle empties (keyframes, constraints and drivers all
+count), solve warm-started from the previous frame until the energy stops
+dropping (relative change <= tolerance), keep the float32 result. Nothing is
+written before every frame is solved, so a cancelled bake changes nothing.
+
+Rest shape: the one Deform uses (the Basis key, or the "arap_rest" attribute,
+or the mesh), ignoring a Basis key the bake itself created. It is never
+modified: the base mesh and the Basis keep their coordinates.
+
+Determinism: every bake binds a fresh solver (one thread) and clears the
+previous bake first, so baking twice stores identical coordinates.
+
+Outputs:
+- shape keys "ARAP_f0001"...: absolute coordinates, relative to the Basis,
+  value keyed 1 at its frame and 0 at the neighbouring frames (linear, so
+  sub-frames blend two neighbouring poses). The add-on's own "ARAP" key is
+  muted while a bake exists (the baked keys replace it); other shape keys keep
+  mixing on top.
+- PC2: object-local float32 coordinates, one sample per frame, read by a
+  Mesh Cache modifier "ARAP Bake" placed first in the stack.
+"""
+
+import os
+import struct
+import time
+
+import bpy
+import numpy as np
+
+from . import constraints, engine, meshio
+from .constraints import SetupError
+
+KEY_PREFIX = "ARAP_f"
+MODIFIER_NAME = "ARAP Bake"
+# Custom properties on the mesh remembering what the bake created or changed.
+PROP_BASIS = "arap_bake_basis"          # the Basis key was created by the bake
+PROP_ACTION = "arap_bake_action"        # the shape-key action was created by the bake
+PROP_MUTED = "arap_bake_muted_live"     # the "ARAP" key was muted by the bake
+
+DEFAULT_ITERATIONS = 500     # per frame, an upper bound: frames stop on the tolerance
+DEFAULT_TOLERANCE = 1e-9     # relative energy change that counts as converged
+DEFAULT_ANDERSON = 5         # Anderson window (energy-safeguarded, see solver.cpp)
+
+__all__ = ("BakeResult", "Baker", "bake_shape_keys", "bake_pc2", "clear_bake", "write_pc2", "read_pc2",
+           "key_name", "is_baked")
+
+
+def key_name(frame):
+    return "%s%04d" % (KEY_PREFIX, frame)
+
+
+def _is_bake_key(name):
+    return name.startswith(KEY_PREFIX) and name[len(KEY_PREFIX):].lstrip("-").isdigit()
+
+
+def is_baked(obj):
+    """True when the object carries baked shape keys or the bake's Mesh Cache modifier."""
+    keys = obj.data.shape_keys
+    if keys is not None and any(_is_bake_key(kb.name) for kb in keys.key_blocks):
+        return True
+    return obj.modifiers.get(MODIFIER_NAME) is not None
+
+
+class BakeResult:
+    """Per-frame statistics of a bake (lists in frame order, times in ms)."""
+
+    def __init__(self, frames):
+        self.frames = list(frames)
+        self.energies = []
+        self.iterations = []
+        self.converged = []
+        self.ms = []            # per frame: frame_set + targets + solve
+        self.gradients = []     # max |dE/dp| over free vertices (measure_gradient=True)
+        self.gradient_reference = None  # same, for the first frame's naive guess
+        self.bind_ms = 0.0
+        self.write_ms = 0.0
+        self.total_ms = 0.0
+        self.output = None      # 'SHAPE_KEYS' | 'PC2'
+        self.path = None
+        self.positions = None   # float32 (frames, n, 3), object-local
+
+    def as_dict(self):
+        return {"frames": self.frames, "energies": self.energies, "iterations": self.iterations,
+                "converged": self.converged, "ms": self.ms, "bind_ms": self.bind_ms, "write_ms": self.write_ms,
+                "total_ms": self.total_ms, "output": self.output, "path": self.path}
+
+    def __repr__(self):
+        n = len(self.ms)
+        return ("<BakeResult %d frames, %.1f ms/frame, %.1f iterations/frame, output=%s>"
+                % (n, sum(self.ms) / max(n, 1), sum(self.iterations) / max(n, 1), self.output))
+
+
+def bake_rest(obj):
+    """Flat float32 rest shape of a bake (a Basis the bake created does not count)."""
+    mode = obj.arap.output
+    keys = obj.data.shape_keys
+    if mode == 'AUTO':
+        own_only = (keys is not None and obj.data.get(PROP_BASIS)
+                    and all(kb == keys.reference_key or _is_bake_key(kb.name) for kb in keys.key_blocks))
+        mode = 'MESH' if keys is None or own_only else 'SHAPE_KEY'
+    return meshio.rest_coords(obj, mode)
+
+
+class Baker:
+    """Solves frames start..end one step() at a time; writes nothing until
+    write_shape_keys() / write_pc2_cache(). The modal operator drives it one
+    frame per timer tick; bake_shape_keys() / bake_pc2() loop over it.
+    """
+
+    def __init__(self, obj, start, end, scene=None, iterations=None, tolerance=None, anderson=None,
+                 measure_gradient=False):
+        constraints.check_object(obj)
+        if end < start:
+            raise SetupError("The bake's end frame (%d) is before its start frame (%d)" % (end, start))
+        self.obj = obj
+        self.scene = scene or bpy.context.scene
+        self.frames = list(range(int(start), int(end) + 1))
+        self.frame_before = (self.scene.frame_current, self.scene.frame_subframe)
+        self.measure_gradient = measure_gradient
+        self.result = BakeResult(self.frames)
+        t0 = time.perf_counter()
+        engine.sync_matrices()
+        self.setup = constraints.gather(obj, self.scene)
+        self.rest32 = bake_rest(obj)
+        self.rest64 = self.rest32.astype(np.float64).reshape(-1, 3)
+        tris = meshio.triangles(obj.data)
+        if len(tris) == 0:
+            raise SetupError("'%s' has no faces: ARAP needs a surface" % obj.name)
+        s = obj.arap
+        self.solver = engine.native().Solver()
+        self.solver.bind(self.rest64, tris, self.setup.constrained, weights=engine.WEIGHT_NAMES[s.weights])
+        self.solver.threads = 1  # reductions in a fixed order: identical bakes
+        self.solver.max_iterations = iterations or DEFAULT_ITERATIONS
+        self.solver.tolerance = DEFAULT_TOLERANCE if tolerance is None else tolerance
+        self.solver.anderson_window = DEFAULT_ANDERSON if anderson is None else anderson
+        self.solver.cold_start = engine.INIT_NAMES[s.init]
+        self.solver.init = "warm"
+        self.rest_constrained = self.rest64[self.setup.constrained]
+        self.targets = np.empty_like(self.rest_constrained)
+        self.free = np.ones(len(self.rest64), bool)
+        self.free[self.setup.constrained] = False
+        self.positions = np.empty((len(self.frames), len(self.rest64), 3), np.float32)
+        self.index = 0
+        self.result.bind_ms = (time.perf_counter() - t0) * 1e3
+        self.started = time.perf_counter()
+
+    @property
+    def done(self):
+        return self.index >= len(self.frames)
+
+    @property
+    def current_frame(self):
+        return self.frames[min(self.index, len(self.frames) - 1)]
+
+    def _targets(self):
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        mats = []
+        for h in self.setup.handles:
+            if not constraints.empty_is_alive(h.empty, self.scene):
+                raise SetupError("The empty of handle '%s' was deleted" % h.group)
+            mats.append(constraints.matrix_to_numpy(h.empty.evaluated_get(depsgraph).matrix_world))
+        obj_matrix = constraints.matrix_to_numpy(self.obj.evaluated_get(depsgraph).matrix_world)
+        transforms = constraints.handle_transforms(self.setup, obj_matrix, mats)
+        return constraints.fill_targets(self.setup, self.rest_constrained, transforms, self.targets)
+
+    def _gradient(self, positions):
+        g = self.solver.energy_gradient(np.ascontiguousarray(positions, np.float64))
+        return float(np.linalg.norm(g[self.free], axis=1).max()) if self.free.any() else 0.0
+
+    def step(self):
+        """Solve the next frame; returns its frame number."""
+        f = self.frames[self.index]
+        t0 = time.perf_counter()
+        self.scene.frame_set(f)
+        targets = self._targets()
+        if self.measure_gradient and self.index == 0:
+            guess = self.rest64.copy()
+            guess[self.setup.constrained] = targets
+            self.result.gradient_reference = self._gradient(guess)
+        stats = self.solver.solve(targets, out=self.positions[self.index])
+        r = self.result
+        r.ms.append((time.perf_counter() - t0) * 1e3)
+        r.energies.append(stats.energy[-1] if stats.energy else stats.initial_energy)
+        r.iterations.append(stats.iterations)
+        r.converged.append(stats.converged)
+        if self.measure_gradient:
+            r.gradients.append(self._gradient(self.solver.positions()))
+        self.index += 1
+        return f
+
+    def run(self, progress=None):
+        """Solve every remaining frame; progress(done, total) after each."""
+        while not self.done:
+            self.step()
+            if progress is not None:
+                progress(self.index, len(self.frames))
+
+    def restore_frame(self):
+        frame, sub = self.frame_before
+        self.scene.frame_set(frame, subframe=sub)
+
+    def cancel(self):
+        """Nothing was written: only put the scene's frame back."""
+        self.restore_frame()
+
+    def _finish(self, output, path, write):
+        if not self.done:
+            raise RuntimeError("the bake is not finished (%d of %d frames)" % (self.index, len(self.frames)))
+        t0 = time.perf_counter()
+        clear_bake(self.obj)
+        write()
+        self.restore_frame()
+        r = self.result
+        r.write_ms = (time.perf_counter() - t0) * 1e3
+        r.total_ms = (time.perf_counter() - self.started) * 1e3 + r.bind_ms
+        r.output, r.path, r.positions = output, path, self.positions
+        return r
+
+    def write_shape_keys(self):
+        """Replace any previous bake with one shape key per frame; returns the BakeResult."""
+        return self._finish('SHAPE_KEYS', None, lambda: _write_keys(self.obj, self.frames, self.positions))
+
+    def write_pc2_cache(self, path):
+        """Write the .pc2 file (atomically) and the Mesh Cache modifier; returns the BakeResult."""
+        def write():
+            write_pc2(bpy.path.abspath(path), self.positions, self.frames[0])
+            _add_cache_modifier(self.obj, path, self.frames[0])
+        return self._finish('PC2', path, write)
+
+
+def bake_shape_keys(obj, start, end, scene=None, iterations=None, tolerance=None, anderson=None,
+                    measure_gradient=False, progress=None):
+    """Bake frames start..end (inclusive) into shape keys "ARAP_f0001"...
+
+    Each key holds the solved pose of its frame and is keyed to 1 at that frame
+    and 0 at the frames next to it. iterations: at most this many per frame
+    (default 500); tolerance: relative energy change that stops a frame (1e-9);
+    anderson: Anderson window (5, 0 = plain local/global). Replaces a previous
+    bake; the Basis and base mesh are not modified. Returns a BakeResult
+    (energies, iterations, ms per frame). Raises SetupError on a bad set-up,
+    with the object unchanged.
+    """
+    baker = Baker(obj, start, end, scene, iterations, tolerance, anderson, measure_gradient)
+    try:
+        baker.run(progress)
+    except BaseException:
+        baker.cancel()
+        raise
+    return baker.write_shape_keys()
+
+
+def bake_pc2(obj, path, start, end, scene=None, iterations=None, tolerance=None, anderson=None,
+             measure_gradient=False, progress=None):
+    """Bake frames start..end into the point cache `path` (.pc2, object-local
+    coordinates, start frame = `start`, one sample per frame) and add a Mesh
+    Cache modifier "ARAP Bake" reading it. `path` may be Blender-relative
+    ("//anim.pc2"). Other arguments and the result as bake_shape_keys().
+    """
+    baker = Baker(obj, start, end, scene, iterations, tolerance, anderson, measure_gradient)
+    try:
+        baker.run(progress)
+    except BaseException:
+        baker.cancel()
+        raise
+    return baker.write_pc2_cache(path)
+
+
+def clear_bake(obj):
+    """Remove the baked shape keys, their keyframes and the bake's Mesh Cache
+    modifier, and undo what the bake changed (muted "ARAP" key, created Basis).
+    The .pc2 file is left on disk. Returns the number of things removed."""
+    removed = 0
+    mesh = obj.data
+    keys = mesh.shape_keys
+    if keys is not None:
+        action = keys.animation_data.action if keys.animation_data else None
+        if action is not None:
+            for fc in [fc for fc in action.fcurves if fc.data_path.startswith('key_blocks["%s' % KEY_PREFIX)]:
+                action.fcurves.remove(fc)
+            if mesh.get(PROP_ACTION) and len(action.fcurves) == 0:
+                keys.animation_data.action = None
+                if action.users == 0:
+                    bpy.data.actions.remove(action)
+        for kb in [kb for kb in keys.key_blocks if _is_bake_key(kb.name)]:
+            obj.shape_key_remove(kb)
+            removed += 1
+        live = keys.key_blocks.get(meshio.SHAPE_KEY_NAME)
+        if live is not None and mesh.get(PROP_MUTED):
+            live.mute = False
+        if mesh.get(PROP_BASIS) and len(keys.key_blocks) == 1:
+            obj.shape_key_clear()
+            removed += 1
+    for prop in (PROP_BASIS, PROP_ACTION, PROP_MUTED):
+        if prop in mesh:
+            del mesh[prop]
+    mod = obj.modifiers.get(MODIFIER_NAME)
+    if mod is not None and mod.type == 'MESH_CACHE':
+        obj.modifiers.remove(mod)
+        removed += 1
+    mesh.update()
+    return removed
+
+
+def _write_keys(obj, frames, positions):
+    mesh = obj.data
+    if mesh.shape_keys is None:
+        obj.shape_key_add(name="Basis", from_mix=False)
+        mesh[PROP_BASIS] = True
+    keys = mesh.shape_keys
+    basis = keys.reference_key
+    live = keys.key_blocks.get(meshio.SHAPE_KEY_NAME)
+    if live is not None and not live.mute:
+        live.mute = True
+        mesh[PROP_MUTED] = True
+    if keys.animation_data is None:
+        keys.animation_data_create()
+    if keys.animation_data.action is None:
+        keys.animation_data.action = bpy.data.actions.new("%s_ARAPBake" % obj.name)
+        mesh[PROP_ACTION] = True
+    action = keys.animation_data.action
+    for f, pos in zip(frames, positions):
+        kb = obj.shape_key_add(name=key_name(f), from_mix=False)
+        kb.relative_key = basis
+        kb.data.foreach_set("co", pos.ravel())
+        kb.value = 0.0
+        fc = action.fcurves.new('key_blocks["%s"].value' % kb.name)
+        fc.keyframe_points.add(3)
+        fc.keyframe_points.foreach_set("co", (f - 1, 0.0, f, 1.0, f + 1, 0.0))
+        for p in fc.keyframe_points:
+            p.interpolation = 'LINEAR'
+        fc.update()
+    mesh.update()
+
+
+PC2_HEADER = struct.Struct("<12siiffi")
+
+
+def write_pc2(path, positions, start, rate=1.0):
+    """Write a PC2 point cache: positions float32 (samples, n, 3) or (samples, 3n).
+
+    Written to a temporary file next to `path` and renamed, so readers never
+    see half a file."""
+    data = np.ascontiguousarray(positions, dtype="<f4").reshape(len(positions), -1, 3)
+    samples, n = data.shape[:2]
+    tmp = "%s.tmp-%d" % (path, os.getpid())
+    try:
+        with open(tmp, "wb") as f:
+            f.write(PC2_HEADER.pack(b"POINTCACHE2\0", 1, n, float(start), float(rate), samples))
+            f.write(data.tobytes())
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def read_pc2(path):
+    """(start, rate, float32 array (samples, n, 3)) of a PC2 file."""
+    with open(path, "rb") as f:
+        magic, version, n, start, rate, samples = PC2_HEADER.unpack(f.read(PC2_HEADER.size))
+        if magic != b"POINTCACHE2\0" or version != 1:
+            raise ValueError("%s is not a PC2 (version 1) file" % path)
+        data = np.frombuffer(f.read(), dtype="<f4")
+    if data.size != samples * n * 3:
+        raise ValueError("%s is truncated: %d of %d floats" % (path, data.size, samples * n * 3))
+    return start, rate, data.reshape(samples, n, 3)
+
+
+def _add_cache_modifier(obj, path, start):
+    mod = obj.modifiers.new(MODIFIER_NAME, 'MESH_CACHE')
+    mod.cache_format = 'PC2'
+    mod.filepath = path
+    mod.time_mode = 'FRAME'
+    mod.play_mode = 'SCENE'
+    mod.frame_start = start
+    mod.frame_scale = 1.0
+    mod.interpolation = 'LINEAR'
+    mod.deform_mode = 'OVERWRITE'
+    mod.factor = 1.0
+    # First in the stack: the cache holds the deformed base mesh.
+    while obj.modifiers[0] != mod:
+        with bpy.context.temp_override(object=obj, active_object=obj):
+            bpy.ops.object.modifier_move_up(modifier=mod.name)
+    return mod

@@ -1,0 +1,193 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Bake operator and its sub-panel: a thin shell around bake.Baker.
+
+Interactive runs are modal (one frame per timer tick, progress in the
+header and the cursor, Esc or right-click cancels and nothing is written);
+in --background (no event loop) and from the redo panel the bake runs
+synchronously in execute(), so scripts can call
+bpy.ops.object.arap_bake(frame_start=1, frame_end=100, output='PC2', filepath="//pose.pc2").
+"""
+
+import bpy
+from bpy.props import EnumProperty, IntProperty, StringProperty
+
+from . import bake, engine
+
+OUTPUT_ITEMS = (
+    ('SHAPE_KEYS', "Shape Keys", "One shape key per frame (ARAP_f0001...), keyed on at its frame"),
+    ('PC2', "Point Cache (.pc2)", "A .pc2 file read by a Mesh Cache modifier"),
+)
+
+
+def _default_pc2(obj):
+    return "//%s_arap.pc2" % bpy.path.clean_name(obj.name)
+
+
+class ARAP_OT_bake(bpy.types.Operator):
+    """Solve every frame of a range (warm-started, to the tolerance) and store the poses for playback"""
+    bl_idname = "object.arap_bake"
+    bl_label = "Bake ARAP Animation"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    frame_start: IntProperty(name="Start", description="First frame to bake (default: the scene's start)",
+                             default=1)
+    frame_end: IntProperty(name="End", description="Last frame to bake (default: the scene's end)", default=250)
+    output: EnumProperty(name="Output", description="Where the baked poses go", items=OUTPUT_ITEMS,
+                         default='SHAPE_KEYS')
+    filepath: StringProperty(name="File", description="The .pc2 file to write (empty: //<object>_arap.pc2)",
+                             subtype='FILE_PATH', default="")
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        return obj is not None and obj.type == 'MESH' and obj.mode == 'OBJECT'
+
+    def _check(self, context):
+        """Fill defaults; returns an error message or None."""
+        if self.output == 'PC2':
+            if not self.filepath:
+                self.filepath = _default_pc2(context.active_object)
+            if self.filepath.startswith("//") and not bpy.data.filepath:
+                return "Save the .blend first, or give the .pc2 file an absolute path"
+        return None
+
+    def _start(self, context):
+        return bake.Baker(context.active_object, self.frame_start, self.frame_end, scene=context.scene)
+
+    def _finish(self, baker):
+        if self.output == 'PC2':
+            result = baker.write_pc2_cache(self.filepath)
+        else:
+            result = baker.write_shape_keys()
+        n = len(result.frames)
+        self.report({'INFO'}, "Baked %d frame(s) in %.2f s (%.1f ms/frame, %.1f iterations/frame)"
+                    % (n, result.total_ms / 1e3, sum(result.ms) / n, sum(result.iterations) / n))
+
+    def _fail(self, exc):
+        message = engine.user_error(exc) or (exc.strerror if isinstance(exc, OSError) else None)
+        if message is None:
+            raise exc
+        self.report({'ERROR'}, message)
+        return {'CANCELLED'}
+
+    def execute(self, context):
+        error = self._check(context)
+        if error:
+            self.report({'ERROR'}, error)
+            return {'CANCELLED'}
+        baker = None
+        try:
+            baker = self._start(context)
+            baker.run()
+            self._finish(baker)
+        except Exception as exc:  # noqa: BLE001 - user errors are reported, bugs re-raised
+            if baker is not None:
+                baker.cancel()
+            return self._fail(exc)
+        return {'FINISHED'}
+
+    def invoke(self, context, event):
+        scene = context.scene
+        if not self.properties.is_property_set("frame_start"):
+            self.frame_start = scene.frame_start
+        if not self.properties.is_property_set("frame_end"):
+            self.frame_end = scene.frame_end
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        error = self._check(context)
+        if error:
+            self.report({'ERROR'}, error)
+            return {'CANCELLED'}
+        try:
+            self._baker = self._start(context)
+        except Exception as exc:  # noqa: BLE001
+            return self._fail(exc)
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.001, window=context.window)
+        wm.modal_handler_add(self)
+        wm.progress_begin(0, len(self._baker.frames))
+        return {'RUNNING_MODAL'}
+
+    def _end(self, context):
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        if context.area is not None:
+            context.area.header_text_set(None)
+
+    def modal(self, context, event):
+        baker = self._baker
+        if event.type in {'ESC', 'RIGHTMOUSE'}:
+            self._end(context)
+            baker.cancel()
+            self.report({'WARNING'}, "Bake cancelled: nothing was changed")
+            return {'CANCELLED'}
+        if event.type != 'TIMER':
+            return {'RUNNING_MODAL'}
+        try:
+            frame = baker.step()
+            if baker.done:
+                self._end(context)
+                self._finish(baker)
+                return {'FINISHED'}
+        except Exception as exc:  # noqa: BLE001
+            self._end(context)
+            baker.cancel()
+            return self._fail(exc)
+        context.window_manager.progress_update(baker.index)
+        if context.area is not None:
+            context.area.header_text_set("ARAP bake: frame %d (%d/%d), %d iterations - Esc to cancel"
+                                         % (frame, baker.index, len(baker.frames), baker.result.iterations[-1]))
+        return {'RUNNING_MODAL'}
+
+
+class ARAP_OT_bake_clear(bpy.types.Operator):
+    """Remove the baked shape keys or Mesh Cache modifier (the .pc2 file stays on disk)"""
+    bl_idname = "object.arap_bake_clear"
+    bl_label = "Clear ARAP Bake"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        return obj is not None and obj.type == 'MESH' and obj.mode == 'OBJECT'
+
+    def execute(self, context):
+        n = bake.clear_bake(context.active_object)
+        self.report({'INFO'}, "Removed %d baked item(s)" % n)
+        return {'FINISHED'}
+
+
+class ARAP_PT_bake(bpy.types.Panel):
+    """Bake the ARAP pose of every frame for playback"""
+    bl_label = "Bake Animation"
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "ARAP"
+    bl_parent_id = "ARAP_PT_main"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        return obj is not None and obj.type == 'MESH'
+
+    def draw(self, context):
+        layout = self.layout
+        scene = context.scene
+        obj = context.active_object
+        row = layout.row(align=True)
+        row.prop(scene, "frame_start", text="Start")
+        row.prop(scene, "frame_end", text="End")
+        col = layout.column(align=True)
+        op = col.operator(ARAP_OT_bake.bl_idname, text="Bake Shape Keys", icon='SHAPEKEY_DATA')
+        op.output = 'SHAPE_KEYS'
+        op = col.operator(ARAP_OT_bake.bl_idname, text="Bake Point Cache (.pc2)", icon='FILE_CACHE')
+        op.output = 'PC2'
+        op.filepath = _default_pc2(obj)
+        if bake.is_baked(obj):
+            col.operator(ARAP_OT_bake_clear.bl_idname, icon='TRASH')
+
+
+classes = (ARAP_OT_bake, ARAP_OT_bake_clear, ARAP_PT_bake)
+register, unregister = bpy.utils.register_classes_factory(classes)

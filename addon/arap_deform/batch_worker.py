@@ -1,0 +1,200 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Batch worker: poses or bakes many .blend files inside one Blender process.
+
+Started by the arap-batch launcher (or by hand):
+
+    blender --background --factory-startup -noaudio --python-exit-code 1 \\
+        --python-expr "import sys; sys.path.insert(0, '<folder holding arap_deform>'); \\
+                       from arap_deform import batch_worker; batch_worker.main()" -- job.json
+
+job.json:
+    {"files": [{"input": "/in/a.blend", "output": "/out/a.blend"}, ...],
+     "frame": null | F,               # pose at frame F (null: the file's current frame)
+     "bake": null | [START, END],     # bake instead of posing
+     "bake_format": "shapekeys" | "pc2",
+     "iterations": null | N,          # Deform iterations, or per-frame maximum when baking
+     "objects": [] | ["Name", ...],   # default: every mesh with ARAP settings
+     "results": null | "/path/results.jsonl"}
+
+For every file, one JSON line {"event": "start", "input": ...} before it and
+one {"event": "result", "input", "output", "status": "ok" | "failed",
+"reason", "objects": [...], "ms"} after it, on stdout prefixed by
+"@arap-batch " (Blender prints its own lines there too) and appended to
+"results" when given. A failing file is reported and the worker goes on.
+
+Outputs are saved to a hidden temporary file in the output folder and renamed
+over the final name (os.replace), so a killed worker never leaves half a
+file under the final name; the input is only replaced when output == input
+(--in-place). SIGTERM stops the worker after removing its temporary files.
+"""
+
+import json
+import os
+import re
+import signal
+import sys
+import time
+import traceback
+
+import bpy
+
+PREFIX = "@arap-batch "
+
+
+class Interrupted(BaseException):
+    """SIGTERM arrived: stop after cleaning up (not caught by `except Exception`)."""
+
+
+def temp_name(final, pid=None):
+    """Hidden temporary file next to `final` (the launcher sweeps these by pid)."""
+    folder, name = os.path.split(final)
+    stem = name[:-6] if name.endswith(".blend") else name
+    return os.path.join(folder, ".%s.arap-tmp-%d.blend" % (stem, os.getpid() if pid is None else pid))
+
+
+TEMP_PATTERN = r"^\..*\.arap-tmp-%d\.blend@?$|\.pc2\.tmp-%d$"
+
+
+def temp_files(folder, pid):
+    """Temporary files a worker with this pid may have left in `folder`."""
+    pattern = re.compile(TEMP_PATTERN % (pid, pid))
+    try:
+        return [os.path.join(folder, n) for n in os.listdir(folder) if pattern.search(n)]
+    except OSError:
+        return []
+
+
+class FileFailed(Exception):
+    pass
+
+
+def _ensure_addon():
+    """Register the add-on this module belongs to (once per process)."""
+    package = __package__ or "arap_deform"
+    if not hasattr(bpy.types.Object, "arap"):
+        __import__(package).register()
+    return sys.modules[package]
+
+
+def _emit(record, results_path):
+    line = json.dumps(record)
+    sys.stdout.write(PREFIX + line + "\n")
+    sys.stdout.flush()
+    if results_path:
+        with open(results_path, "a", encoding="utf-8") as f:
+            f.write(line + "\n")
+
+
+def has_settings(obj):
+    return obj.type == 'MESH' and (bool(obj.arap.fixed_group) or len(obj.arap.handles) > 0)
+
+
+def _targets(scene, names):
+    if names:
+        missing = [n for n in names if scene.objects.get(n) is None]
+        if missing:
+            raise FileFailed("object(s) not found in the scene: %s" % ", ".join(missing))
+        objs = [scene.objects[n] for n in names]
+        bad = [o.name for o in objs if not has_settings(o)]
+        if bad:
+            raise FileFailed("no ARAP settings (fixed group or handles) on: %s" % ", ".join(bad))
+        return objs
+    objs = [o for o in scene.objects if has_settings(o)]
+    if not objs:
+        raise FileFailed("no mesh object has ARAP settings (fixed group or handles)")
+    return objs
+
+
+def _pose(obj, job, scene, out_path, written):
+    """Deform or bake one object; returns its record. Raises FileFailed."""
+    from . import api, bake, engine
+    rec = {"name": obj.name}
+    try:
+        if job.get("bake"):
+            start, end = job["bake"]
+            if job.get("bake_format") == "pc2":
+                folder, name = os.path.split(out_path)
+                stem = name[:-6] if name.endswith(".blend") else name
+                pc2 = os.path.join(folder, "%s_%s.pc2" % (stem, bpy.path.clean_name(obj.name)))
+                # Relative to the open file; save_as_mainfile(relative_remap=True) rebases it.
+                r = bake.bake_pc2(obj, bpy.path.relpath(pc2), start, end, scene=scene,
+                                  iterations=job.get("iterations"))
+                written.append(pc2)
+                rec["pc2"] = pc2
+            else:
+                r = bake.bake_shape_keys(obj, start, end, scene=scene, iterations=job.get("iterations"))
+            rec.update(frames=len(r.frames), energies=r.energies, iterations=r.iterations,
+                       ms=round(r.total_ms, 2))
+        else:
+            r = api.deform(obj, iterations=job.get("iterations"), scene=scene)
+            rec.update(energies=r.energies, energy=r.energy, iterations=r.iterations,
+                       ms=round(r.bind_ms + r.solve_ms + r.io_ms, 2), warnings=r.warnings)
+    except Exception as exc:  # noqa: BLE001 - every error of one object fails its file
+        message = engine.user_error(exc) or "%s: %s" % (type(exc).__name__, exc)
+        raise FileFailed("object '%s': %s" % (obj.name, message)) from exc
+    return rec
+
+
+def process(entry, job):
+    """Open, pose/bake and save one file; returns the result record."""
+    inp, out = entry["input"], entry["output"]
+    rec = {"event": "result", "input": inp, "output": out, "status": "failed", "reason": "", "objects": []}
+    t0 = time.perf_counter()
+    tmp = temp_name(out)
+    written = []
+    try:
+        if not os.path.isfile(inp):
+            raise FileFailed("input file not found")
+        try:
+            bpy.ops.wm.open_mainfile(filepath=inp, load_ui=False)
+        except RuntimeError as exc:
+            raise FileFailed("cannot open: %s" % str(exc).strip().splitlines()[-1]) from None
+        scene = bpy.context.scene
+        objs = _targets(scene, job.get("objects"))
+        if job.get("frame") is not None:
+            scene.frame_set(int(job["frame"]))
+        for obj in objs:
+            if obj.mode != 'OBJECT':
+                bpy.context.view_layer.objects.active = obj
+                bpy.ops.object.mode_set(mode='OBJECT')
+            rec["objects"].append(_pose(obj, job, scene, out, written))
+        bpy.ops.wm.save_as_mainfile(filepath=tmp, copy=True, relative_remap=True)
+        os.replace(tmp, out)
+        rec["status"] = "ok"
+    except FileFailed as exc:
+        rec["reason"] = str(exc)
+    except Exception as exc:  # noqa: BLE001 - a bug or an unexpected Blender error: report, go on
+        rec["reason"] = "%s: %s" % (type(exc).__name__, exc)
+        traceback.print_exc()
+    finally:
+        for path in [tmp, tmp + "@"] + (written if rec["status"] != "ok" else []):
+            if os.path.exists(path):
+                os.remove(path)
+    rec["ms"] = round((time.perf_counter() - t0) * 1e3, 1)
+    return rec
+
+
+def _on_sigterm(_signum, _frame):
+    raise Interrupted()
+
+
+def main(argv=None):
+    argv = sys.argv[sys.argv.index("--") + 1:] if argv is None and "--" in sys.argv else (argv or [])
+    if len(argv) != 1:
+        print("usage: blender --background ... -- <job.json>", file=sys.stderr)
+        sys.exit(2)
+    with open(argv[0], encoding="utf-8") as f:
+        job = json.load(f)
+    signal.signal(signal.SIGTERM, _on_sigterm)
+    _ensure_addon()
+    results = job.get("results")
+    try:
+        for entry in job["files"]:
+            _emit({"event": "start", "input": entry["input"]}, results)
+            _emit(process(entry, job), results)
+    except Interrupted:
+        sys.stdout.flush()
+        os._exit(143)
+    sys.stdout.flush()
+    # os._exit: skip Blender's exit path (it would print and free the last file).
+    os._exit(0)

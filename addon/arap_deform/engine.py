@@ -1,0 +1,396 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The only importer of the native module: numpy <-> bpy, solver cache,
+one-shot deform and the Live session (plain classes, testable in --background).
+"""
+
+import glob
+import os
+import sys
+import time
+
+import bpy
+import numpy as np
+
+from . import constraints, meshio
+from .constraints import SetupError
+
+WEIGHT_NAMES = {'COTAN': "cotan", 'COTAN_CLAMPED': "cotan-clamped", 'UNIFORM': "uniform"}
+INIT_NAMES = {'LAPLACIAN': "laplacian", 'DIFFERENTIAL': "differential", 'NAIVE': "naive"}
+
+_native = None
+
+
+class NativeModuleError(ImportError):
+    """The compiled module is missing or was built for another add-on/Python."""
+
+
+def addon_version():
+    return ".".join(str(v) for v in sys.modules[__package__].bl_info["version"])
+
+
+def native():
+    """Import _arap_native on first use and check it matches this add-on."""
+    global _native
+    if _native is not None:
+        return _native
+    here = os.path.dirname(os.path.abspath(__file__))
+    py = "%d.%d" % sys.version_info[:2]
+    rebuild = ("Rebuild it: cmake -S <source> -B build -DARAP_PYTHON_EXECUTABLE=<python%s> && "
+               "cmake --build build, then install build/arap_deform.zip" % py)
+    try:
+        from . import _arap_native as mod
+    except ImportError as exc:
+        found = [os.path.basename(p) for p in glob.glob(os.path.join(here, "_arap_native*"))]
+        if found:
+            msg = ("The ARAP native module %s does not load in this Blender (Python %s, %s): %s. "
+                   % (", ".join(found), py, sys.implementation.cache_tag, exc))
+        else:
+            msg = "The ARAP native module (_arap_native) is missing from %s. " % here
+        raise NativeModuleError(msg + rebuild) from exc
+    if tuple(mod.PYTHON_VERSION) != tuple(sys.version_info[:2]):
+        raise NativeModuleError("The ARAP native module was built for Python %d.%d (%s) but Blender runs "
+                                "Python %s. %s" % (*mod.PYTHON_VERSION, mod.PYTHON_ABI, py, rebuild))
+    if mod.__version__ != addon_version():
+        raise NativeModuleError("The ARAP native module is version %s but the add-on is %s: rebuild the "
+                                "module from the same sources as the add-on. %s"
+                                % (mod.__version__, addon_version(), rebuild))
+    _native = mod
+    return mod
+
+
+def native_error_type():
+    return native().ArapError
+
+
+class DeformResult:
+    """What a solve did: energies, timings (ms), warnings, mesh checks."""
+
+    def __init__(self, stats, bind_ms, io_ms, output, warnings, report, cached_bind):
+        self.initial_energy = stats.initial_energy
+        self.energies = list(stats.energy)
+        self.iterations = stats.iterations
+        self.converged = stats.converged
+        self.solve_ms = sum(stats.iteration_ms) + stats.init_ms
+        self.bind_ms = bind_ms
+        self.io_ms = io_ms
+        self.output = output
+        self.warnings = warnings
+        self.mesh_report = report
+        self.cached_bind = cached_bind
+
+    @property
+    def energy(self):
+        return self.energies[-1] if self.energies else self.initial_energy
+
+    def __repr__(self):
+        return ("<DeformResult iterations=%d energy=%.6g bind_ms=%.1f solve_ms=%.1f io_ms=%.1f output=%s>"
+                % (self.iterations, self.energy, self.bind_ms, self.solve_ms, self.io_ms, self.output))
+
+
+# Bound solvers reused across redo-panel re-runs, keyed on object, topology,
+# rest shape, constraint set and weights (as LoopTools caches its data).
+_cache = {}
+_CACHE_SIZE = 4
+
+
+def _digest(*arrays):
+    return hash(tuple(a.tobytes() for a in arrays))
+
+
+def bound_solver(obj, rest64, tris, constrained, weights):
+    """(solver, bind_ms, cached) for these inputs; binds only when they changed."""
+    key = (obj.as_pointer(), len(rest64), _digest(rest64, tris, constrained), weights)
+    hit = _cache.get(obj.as_pointer())
+    if hit is not None and hit[0] == key:
+        return hit[1], 0.0, True
+    solver = native().Solver()
+    solver.bind(rest64, tris, constrained, weights=weights)
+    _cache[obj.as_pointer()] = (key, solver)
+    while len(_cache) > _CACHE_SIZE:
+        _cache.pop(next(iter(_cache)))
+    return solver, solver.bind_ms, False
+
+
+def clear_cache():
+    _cache.clear()
+
+
+def unconstrained_warning(report):
+    n = report["unconstrained_components"]
+    if n == 0:
+        return None
+    return ("%d vertices in %d part(s) have no fixed or handle vertex: they keep their rest shape"
+            % (report["unconstrained_vertices"], n))
+
+
+class Problem:
+    """Everything read from Blender for one bind: rest, triangles, constraints."""
+
+    def __init__(self, obj, scene):
+        self.setup = constraints.gather(obj, scene)
+        s = obj.arap
+        self.output = meshio.resolve_output(obj, s.output)
+        self.rest32 = meshio.rest_coords(obj, self.output)
+        self.rest64 = self.rest32.astype(np.float64).reshape(-1, 3)
+        self.tris = meshio.triangles(obj.data)
+        if len(self.tris) == 0:
+            raise SetupError("'%s' has no faces: ARAP needs a surface" % obj.name)
+        self.rest_constrained = self.rest64[self.setup.constrained]
+        self.targets = np.empty_like(self.rest_constrained)
+        self.weights = WEIGHT_NAMES[s.weights]
+
+    def empty_matrices(self, scene):
+        mats = []
+        for h in self.setup.handles:
+            if not constraints.empty_is_alive(h.empty, scene):
+                raise SetupError("The empty of handle '%s' was deleted" % h.group)
+            mats.append(constraints.matrix_to_numpy(h.empty.matrix_world))
+        return mats
+
+    def compute_targets(self, obj, scene):
+        transforms = constraints.handle_transforms(
+            self.setup, constraints.matrix_to_numpy(obj.matrix_world), self.empty_matrices(scene))
+        return constraints.fill_targets(self.setup, self.rest_constrained, transforms, self.targets)
+
+
+def sync_matrices():
+    """Bring matrix_world up to date after scripts changed location/rotation
+    (Blender updates it only when the depsgraph is evaluated)."""
+    view_layer = getattr(bpy.context, "view_layer", None)
+    if view_layer is not None:
+        view_layer.update()
+
+
+def deform(obj, scene=None, iterations=None, tolerance=None, init=None):
+    """One-shot solve from the rest shape; writes the result (mesh or shape key).
+
+    Raises SetupError or the native ArapError; the mesh is untouched then.
+    """
+    t0 = time.perf_counter()
+    sync_matrices()
+    problem = Problem(obj, scene)
+    targets = problem.compute_targets(obj, scene)
+    s = obj.arap
+    solver, bind_ms, cached = bound_solver(obj, problem.rest64, problem.tris, problem.setup.constrained,
+                                           problem.weights)
+    solver.max_iterations = iterations if iterations else s.iterations
+    solver.tolerance = s.tolerance if tolerance is None else tolerance
+    solver.init = INIT_NAMES[init or s.init]
+    result32 = np.empty(len(problem.rest32), np.float32)
+    t1 = time.perf_counter()
+    stats = solver.solve(targets, out=result32)
+    t2 = time.perf_counter()
+    if problem.output == 'MESH' and not meshio.has_rest_attribute(obj.data):
+        meshio.store_rest(obj.data, problem.rest32)
+    out = meshio.Output(obj, problem.output)
+    out.ensure()
+    out.write(result32)
+    t3 = time.perf_counter()
+    report = solver.mesh_report()
+    warnings = list(problem.setup.warnings)
+    w = unconstrained_warning(report)
+    if w:
+        warnings.append(w)
+    io_ms = (t1 - t0 + t3 - t2) * 1000.0 - bind_ms
+    return DeformResult(stats, bind_ms, io_ms, problem.output, warnings, report, cached)
+
+
+def reset(obj):
+    """Put the rest shape back and capture every handle's bind pose again."""
+    constraints.check_object(obj)
+    mesh = obj.data
+    keys = mesh.shape_keys
+    key = keys.key_blocks.get(meshio.SHAPE_KEY_NAME) if keys is not None else None
+    if key is not None:
+        rest = meshio.rest_coords(obj, 'SHAPE_KEY')
+        meshio.Output(obj, 'SHAPE_KEY').write(rest)
+    if meshio.has_rest_attribute(mesh):
+        meshio.Output(obj, 'MESH').write(meshio.rest_coords(obj, 'MESH'))
+    capture_all_binds(obj)
+
+
+def set_rest_pose(obj):
+    """Take the current shape as the rest shape and the empties' poses as bind poses."""
+    constraints.check_object(obj)
+    if meshio.resolve_output(obj, obj.arap.output) == 'MESH':
+        meshio.store_rest(obj.data, meshio.read_coords(obj.data))
+    capture_all_binds(obj)
+
+
+def capture_all_binds(obj):
+    for h in obj.arap.handles:
+        if h.empty is not None:
+            constraints.capture_bind(h)
+
+
+class FrameStats:
+    def __init__(self, read_ms, solve_ms, write_ms, energy, iterations):
+        self.read_ms = read_ms      # empties -> targets
+        self.solve_ms = solve_ms    # native solve (warm start) incl. copy into the float32 buffer
+        self.write_ms = write_ms    # foreach_set + mesh.update()
+        self.energy = energy
+        self.iterations = iterations
+
+    @property
+    def io_ms(self):
+        return self.read_ms + self.write_ms
+
+    @property
+    def total_ms(self):
+        return self.read_ms + self.solve_ms + self.write_ms
+
+
+class SessionError(Exception):
+    """The Live session cannot go on. kind: 'OBJECT', 'TOPOLOGY', 'MODE' or 'EMPTY'."""
+
+    def __init__(self, message, kind):
+        super().__init__(message)
+        self.kind = kind
+
+
+def user_error(exc):
+    """The message to show for errors a user can act on, else None (a bug: re-raise)."""
+    if isinstance(exc, (SetupError, SessionError, NativeModuleError)):
+        return str(exc)
+    if _native is not None and isinstance(exc, _native.ArapError):
+        return "ARAP solver: %s" % exc
+    return None
+
+
+_sessions = set()
+
+
+class LiveSession:
+    """Bind once, then step(): read empties, solve warm-started, write.
+
+    The modal operator is a thin shell around this; scripts and tests drive
+    it directly. cancel() restores the snapshot taken at start bit for bit.
+    """
+
+    def __init__(self, obj, scene=None, iterations=None, write=True):
+        self.obj = obj
+        self.scene = scene
+        sync_matrices()
+        self.problem = Problem(obj, scene)
+        self.n_vertices = len(obj.data.vertices)
+        self.snapshot = meshio.Snapshot(obj)
+        s = obj.arap
+        self.solver = native().Solver()
+        self.solver.bind(self.problem.rest64, self.problem.tris, self.problem.setup.constrained,
+                         weights=self.problem.weights)
+        self.bind_ms = self.solver.bind_ms
+        self.solver.max_iterations = iterations or s.live_iterations
+        self.solver.tolerance = s.tolerance
+        self.solver.cold_start = INIT_NAMES[s.init]
+        self.solver.init = "warm"
+        self.buffer = np.empty(len(self.problem.rest32), np.float32)
+        self.write_enabled = write
+        self.output = meshio.Output(obj, self.problem.output)
+        self.warnings = list(self.problem.setup.warnings)
+        w = unconstrained_warning(self.solver.mesh_report())
+        if w:
+            self.warnings.append(w)
+        self.last = None
+        self.active = True
+        # Set by the panel's Apply/Cancel buttons; the modal operator acts on it.
+        self.request = None
+        self.converged = False
+        self._pose = None
+        if write:
+            self.output.ensure()
+        _sessions.add(self)
+
+    def check(self):
+        """Raise SessionError when the object can no longer be posed."""
+        try:
+            obj = self.obj
+            n = len(obj.data.vertices)
+            mode = obj.mode
+        except ReferenceError:
+            raise SessionError("The posed object was deleted", 'OBJECT') from None
+        if n != self.n_vertices:
+            raise SessionError("The mesh's vertex count changed (%d -> %d): Live stopped"
+                               % (self.n_vertices, n), 'TOPOLOGY')
+        if mode != 'OBJECT':
+            raise SessionError("'%s' left Object Mode: Live stopped" % obj.name, 'MODE')
+
+    def step(self, force=True):
+        """One update; with force=False returns None when the empties and the
+        object did not move and the last solve had converged."""
+        self.check()
+        t0 = time.perf_counter()
+        try:
+            mats = self.problem.empty_matrices(self.scene)
+        except SetupError as exc:
+            raise SessionError(str(exc), 'EMPTY') from None
+        obj_matrix = constraints.matrix_to_numpy(self.obj.matrix_world)
+        pose = np.concatenate([obj_matrix.ravel()] + [m.ravel() for m in mats])
+        if not force and self.converged and self._pose is not None and np.array_equal(pose, self._pose):
+            return None
+        self._pose = pose
+        transforms = constraints.handle_transforms(self.problem.setup, obj_matrix, mats)
+        targets = constraints.fill_targets(self.problem.setup, self.problem.rest_constrained, transforms,
+                                           self.problem.targets)
+        t1 = time.perf_counter()
+        stats = self.solver.solve(targets, out=self.buffer)
+        t2 = time.perf_counter()
+        if self.write_enabled:
+            self.output.write(self.buffer)
+        t3 = time.perf_counter()
+        energy = stats.energy[-1] if stats.energy else stats.initial_energy
+        self.converged = stats.converged
+        self.last = FrameStats((t1 - t0) * 1e3, (t2 - t1) * 1e3, (t3 - t2) * 1e3, energy, stats.iterations)
+        return self.last
+
+    def positions(self):
+        """The current solution, flat float32 (3n), object-local."""
+        return self.buffer
+
+    def cancel(self):
+        """Restore the mesh exactly as it was when the session started."""
+        if self.active:
+            self.active = False
+            _sessions.discard(self)
+            self.snapshot.restore()
+
+    def finish(self):
+        """Keep the current result."""
+        if self.active:
+            self.active = False
+            _sessions.discard(self)
+            if self.problem.output == 'MESH' and not self.snapshot.had_rest:
+                meshio.store_rest(self.obj.data, self.problem.rest32)
+
+
+def session_for(obj):
+    """The running Live session posing `obj`, or None."""
+    for session in _sessions:
+        try:
+            if session.obj == obj:
+                return session
+        except ReferenceError:
+            continue
+    return None
+
+
+def any_session():
+    """Some running Live session (the panel shows it while an empty is active), or None."""
+    for session in _sessions:
+        return session
+    return None
+
+
+def stop_session(session):
+    """Forget a session without restoring (its object or topology is gone)."""
+    session.active = False
+    _sessions.discard(session)
+
+
+def stop_all_sessions():
+    """Cancel every running Live session (add-on disabled, file loaded)."""
+    for session in list(_sessions):
+        try:
+            session.cancel()
+        except (ReferenceError, ValueError):
+            session.active = False
+            _sessions.discard(session)

@@ -1,0 +1,148 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Mesh data <-> numpy: coordinates, triangles, vertex groups, the rest shape
+and where results are written (the mesh or the "ARAP" shape key).
+
+Rest shape (what ARAP keeps as rigid as possible):
+- result in a shape key: the basis (reference) key, never modified here;
+- result in the mesh: the "arap_rest" point attribute, captured from the
+  current coordinates the first time the tool writes the mesh and again by
+  "Set Rest Pose" (api.bind); "Reset to Rest" copies it back.
+"""
+
+import numpy as np
+
+REST_ATTRIBUTE = "arap_rest"
+SHAPE_KEY_NAME = "ARAP"
+
+
+def read_coords(mesh, out=None):
+    """Vertex coordinates as a flat float32 array (3n)."""
+    n = len(mesh.vertices)
+    if out is None:
+        out = np.empty(n * 3, np.float32)
+    mesh.vertices.foreach_get("co", out)
+    return out
+
+
+def triangles(mesh):
+    """Triangulation of all faces (quads and n-gons included): int32 (m, 3)."""
+    mesh.calc_loop_triangles()
+    tris = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+    mesh.loop_triangles.foreach_get("vertices", tris)
+    return tris.reshape(-1, 3)
+
+
+def group_members(obj, names):
+    """{group name: sorted int64 indices of vertices with weight > 0}."""
+    index_of = {obj.vertex_groups[name].index: name for name in names if name in obj.vertex_groups}
+    members = {name: [] for name in index_of.values()}
+    if index_of:
+        for v in obj.data.vertices:
+            for g in v.groups:
+                name = index_of.get(g.group)
+                if name is not None and g.weight > 0.0:
+                    members[name].append(v.index)
+    return {name: np.asarray(idx, np.int64) for name, idx in members.items()}
+
+
+def resolve_output(obj, output):
+    """'AUTO' -> 'SHAPE_KEY' when the mesh has shape keys, else 'MESH'."""
+    if output == 'AUTO':
+        return 'SHAPE_KEY' if obj.data.shape_keys is not None else 'MESH'
+    return output
+
+
+def rest_coords(obj, output):
+    """Flat float32 rest shape for the resolved output mode."""
+    mesh = obj.data
+    if output == 'SHAPE_KEY' and mesh.shape_keys is not None:
+        out = np.empty(len(mesh.vertices) * 3, np.float32)
+        mesh.shape_keys.reference_key.data.foreach_get("co", out)
+        return out
+    attr = mesh.attributes.get(REST_ATTRIBUTE)
+    if output == 'MESH' and attr is not None and attr.domain == 'POINT' and attr.data_type == 'FLOAT_VECTOR':
+        out = np.empty(len(mesh.vertices) * 3, np.float32)
+        attr.data.foreach_get("vector", out)
+        return out
+    return read_coords(mesh)
+
+
+def has_rest_attribute(mesh):
+    return mesh.attributes.get(REST_ATTRIBUTE) is not None
+
+
+def store_rest(mesh, flat):
+    """Keep `flat` (float32, 3n) as the mesh's rest shape attribute."""
+    attr = mesh.attributes.get(REST_ATTRIBUTE)
+    if attr is None:
+        attr = mesh.attributes.new(REST_ATTRIBUTE, 'FLOAT_VECTOR', 'POINT')
+    attr.data.foreach_set("vector", flat)
+
+
+class Output:
+    """Writes flat float32 coordinates into the mesh or the ARAP shape key."""
+
+    def __init__(self, obj, mode):
+        self.obj = obj
+        self.mode = mode
+
+    def ensure(self):
+        """Create the Basis and ARAP keys when writing to a shape key."""
+        if self.mode != 'SHAPE_KEY':
+            return
+        obj = self.obj
+        if obj.data.shape_keys is None:
+            obj.shape_key_add(name="Basis", from_mix=False)
+        key = obj.data.shape_keys.key_blocks.get(SHAPE_KEY_NAME)
+        if key is None:
+            key = obj.shape_key_add(name=SHAPE_KEY_NAME, from_mix=False)
+        key.value = 1.0
+
+    def write(self, flat):
+        mesh = self.obj.data
+        if self.mode == 'SHAPE_KEY':
+            mesh.shape_keys.key_blocks[SHAPE_KEY_NAME].data.foreach_set("co", flat)
+        else:
+            mesh.vertices.foreach_set("co", flat)
+        mesh.update()
+        self.obj.update_tag(refresh={'DATA'})
+
+
+class Snapshot:
+    """Exact copy of what Deform/Live may change, to restore bit for bit."""
+
+    def __init__(self, obj):
+        mesh = obj.data
+        self.obj = obj
+        self.coords = read_coords(mesh)
+        self.had_keys = mesh.shape_keys is not None
+        self.key_coords = None
+        self.key_value = None
+        self.had_rest = has_rest_attribute(mesh)
+        if self.had_keys:
+            key = mesh.shape_keys.key_blocks.get(SHAPE_KEY_NAME)
+            if key is not None:
+                self.key_coords = np.empty(len(mesh.vertices) * 3, np.float32)
+                key.data.foreach_get("co", self.key_coords)
+                self.key_value = key.value
+
+    def restore(self):
+        obj = self.obj
+        mesh = obj.data
+        if len(mesh.vertices) * 3 != len(self.coords):
+            raise ValueError("the mesh's vertex count changed: cannot restore the snapshot")
+        keys = mesh.shape_keys
+        if keys is not None:
+            key = keys.key_blocks.get(SHAPE_KEY_NAME)
+            if not self.had_keys:
+                obj.shape_key_clear()
+            elif key is not None and self.key_coords is None:
+                obj.shape_key_remove(key)
+            elif key is not None:
+                key.data.foreach_set("co", self.key_coords)
+                key.value = self.key_value
+        if not self.had_rest and has_rest_attribute(mesh):
+            mesh.attributes.remove(mesh.attributes[REST_ATTRIBUTE])
+        mesh.vertices.foreach_set("co", self.coords)
+        mesh.update()
+        obj.update_tag(refresh={'DATA'})

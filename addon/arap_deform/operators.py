@@ -1,0 +1,372 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Thin operators: gather from bpy, call engine/api, report."""
+
+import bmesh
+import bpy
+from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
+from mathutils import Matrix, Vector
+
+from . import api, engine, properties
+
+
+def _mesh_object(context):
+    obj = context.active_object
+    return obj if obj is not None and obj.type == 'MESH' else None
+
+
+def _report_error(op, exc):
+    """Report errors a user can act on and return {'CANCELLED'}; re-raise bugs."""
+    msg = engine.user_error(exc)
+    if msg is None:
+        raise exc
+    op.report({'ERROR'}, msg)
+    return {'CANCELLED'}
+
+
+def _redraw_3d_views(context):
+    """The viewport redraws on input; Live changes the mesh between inputs."""
+    screen = context.window.screen if context.window is not None else None
+    for area in (screen.areas if screen is not None else ()):
+        if area.type == 'VIEW_3D':
+            area.tag_redraw()
+
+
+def _selected_vertices(obj):
+    """Indices and local centroid of the selected vertices (Edit Mode)."""
+    bm = bmesh.from_edit_mesh(obj.data)
+    sel = [v for v in bm.verts if v.select]
+    if not sel:
+        return [], None
+    centroid = sum((v.co for v in sel), Vector()) / len(sel)
+    return [v.index for v in sel], centroid
+
+
+def _assign_in_edit_mode(obj, group, indices, replace):
+    """Set `group` to weight 1 on `indices` through the edit-mesh deform layer."""
+    bm = bmesh.from_edit_mesh(obj.data)
+    layer = bm.verts.layers.deform.verify()
+    wanted = set(indices)
+    bm.verts.ensure_lookup_table()
+    for v in bm.verts:
+        weights = v[layer]
+        if v.index in wanted:
+            weights[group.index] = 1.0
+        elif replace and group.index in weights:
+            del weights[group.index]
+    bmesh.update_edit_mesh(obj.data)
+
+
+class ARAP_OT_add_handle_from_selection(bpy.types.Operator):
+    """Make the selected vertices a new handle: a vertex group and an Empty at their centroid"""
+    bl_idname = "object.arap_add_handle_from_selection"
+    bl_label = "Add Handle from Selection"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    group_name: StringProperty(name="Group Name", default="Handle",
+                               description="Name of the new vertex group (made unique)")
+
+    @classmethod
+    def poll(cls, context):
+        obj = _mesh_object(context)
+        return obj is not None and obj.mode == 'EDIT'
+
+    def execute(self, context):
+        obj = _mesh_object(context)
+        indices, centroid = _selected_vertices(obj)
+        if not indices:
+            self.report({'ERROR'}, "Select the vertices the new handle should move")
+            return {'CANCELLED'}
+        group = obj.vertex_groups.new(name=self.group_name)
+        _assign_in_edit_mode(obj, group, indices, replace=False)
+        empty = bpy.data.objects.new("ARAP_%s_%s" % (obj.name, group.name), None)
+        empty.empty_display_type = 'SPHERE'
+        empty.empty_display_size = max(0.05, 0.1 * max(obj.dimensions))
+        collection = obj.users_collection[0] if obj.users_collection else context.scene.collection
+        collection.objects.link(empty)
+        # Set matrix_world (not location) so it is valid before the next depsgraph update.
+        empty.matrix_world = Matrix.Translation(obj.matrix_world @ centroid)
+        api.add_handle(obj, group.name, empty)
+        self.report({'INFO'}, "Handle '%s': %d vertices, empty '%s'" % (group.name, len(indices), empty.name))
+        return {'FINISHED'}
+
+
+class ARAP_OT_set_fixed_from_selection(bpy.types.Operator):
+    """Make the selected vertices the fixed (anchor) group: they stay at rest"""
+    bl_idname = "object.arap_set_fixed_from_selection"
+    bl_label = "Set Fixed from Selection"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        obj = _mesh_object(context)
+        return obj is not None and obj.mode == 'EDIT'
+
+    def execute(self, context):
+        obj = _mesh_object(context)
+        indices, _centroid = _selected_vertices(obj)
+        if not indices:
+            self.report({'ERROR'}, "Select the vertices that should stay fixed")
+            return {'CANCELLED'}
+        name = obj.arap.fixed_group
+        group = obj.vertex_groups.get(name) if name else None
+        if group is None:
+            group = obj.vertex_groups.new(name="ARAP_Fixed")
+        _assign_in_edit_mode(obj, group, indices, replace=True)
+        obj.arap.fixed_group = group.name
+        self.report({'INFO'}, "Fixed group '%s': %d vertices" % (group.name, len(indices)))
+        return {'FINISHED'}
+
+
+class ARAP_OT_handle_add(bpy.types.Operator):
+    """Add an empty handle slot: pick its vertex group and Empty in the list"""
+    bl_idname = "object.arap_handle_add"
+    bl_label = "Add Handle"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return _mesh_object(context) is not None
+
+    def execute(self, context):
+        s = _mesh_object(context).arap
+        s.handles.add()
+        s.active_handle = len(s.handles) - 1
+        return {'FINISHED'}
+
+
+class ARAP_OT_handle_remove(bpy.types.Operator):
+    """Remove the active handle (its vertex group and Empty are kept)"""
+    bl_idname = "object.arap_handle_remove"
+    bl_label = "Remove Handle"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        obj = _mesh_object(context)
+        return obj is not None and len(obj.arap.handles) > 0
+
+    def execute(self, context):
+        obj = _mesh_object(context)
+        api.remove_handle(obj, min(obj.arap.active_handle, len(obj.arap.handles) - 1))
+        return {'FINISHED'}
+
+
+class ARAP_OT_deform(bpy.types.Operator):
+    """Pose the mesh: move the handles' vertices with their empties and solve ARAP (Object Mode)"""
+    bl_idname = "object.arap_deform"
+    bl_label = "ARAP Deform"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    iterations: IntProperty(name="Iterations", default=0, min=0, max=1000,
+                            description="Local/global iterations (0: the object's setting)")
+    tolerance: FloatProperty(name="Tolerance", default=-1.0, min=-1.0, max=1.0, precision=7,
+                             description="Relative energy change to stop at (negative: the object's setting)")
+    init: EnumProperty(name="First Guess", items=(('SETTINGS', "Object Setting", "Use the object's setting"),)
+                       + properties.INIT_ITEMS, default='SETTINGS')
+
+    def execute(self, context):
+        obj = context.active_object
+        if obj is not None and obj.type == 'MESH' and engine.session_for(obj) is not None:
+            self.report({'ERROR'}, "Live is running on '%s': apply or cancel it first" % obj.name)
+            return {'CANCELLED'}
+        try:
+            result = api.deform(obj, iterations=self.iterations or None,
+                                tolerance=None if self.tolerance < 0 else self.tolerance,
+                                init=None if self.init == 'SETTINGS' else self.init, scene=context.scene)
+        except Exception as exc:  # noqa: BLE001 - _report_error re-raises what is not a user error
+            return _report_error(self, exc)
+        for w in result.warnings:
+            self.report({'WARNING'}, w)
+        self.report({'INFO'}, "ARAP: %d iterations, energy %.6g, %.1f ms (bind %.1f ms)"
+                    % (result.iterations, result.energy, result.solve_ms, result.bind_ms))
+        return {'FINISHED'}
+
+
+class ARAP_OT_reset(bpy.types.Operator):
+    """Put the mesh back to its rest shape and take the empties' current poses as their bind poses"""
+    bl_idname = "object.arap_reset"
+    bl_label = "Reset to Rest"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def execute(self, context):
+        obj = context.active_object
+        try:
+            api.reset(obj)
+        except Exception as exc:  # noqa: BLE001
+            return _report_error(self, exc)
+        return {'FINISHED'}
+
+
+class ARAP_OT_set_rest_pose(bpy.types.Operator):
+    """Take the current shape as the rest shape and the empties' current poses as bind poses"""
+    bl_idname = "object.arap_set_rest_pose"
+    bl_label = "Set Rest Pose"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def execute(self, context):
+        obj = context.active_object
+        try:
+            api.set_rest_pose(obj)
+        except Exception as exc:  # noqa: BLE001
+            return _report_error(self, exc)
+        return {'FINISHED'}
+
+
+class ARAP_OT_live(bpy.types.Operator):
+    """Pose interactively: the mesh follows its handle empties while you move them. Enter applies, Esc cancels"""
+    bl_idname = "object.arap_live"
+    bl_label = "ARAP Live"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._session = None
+        self._timer = None
+
+    def invoke(self, context, event):
+        obj = context.active_object
+        if obj is not None and obj.type == 'MESH' and engine.session_for(obj) is not None:
+            self.report({'ERROR'}, "Live is already running on '%s'" % obj.name)
+            return {'CANCELLED'}
+        try:
+            if obj is None or obj.type != 'MESH':
+                raise engine.SetupError("ARAP works on a mesh object: select one and make it active")
+            self._session = engine.LiveSession(obj, context.scene)
+            self._session.step()
+        except Exception as exc:  # noqa: BLE001
+            if self._session is not None:
+                self._session.cancel()
+            return _report_error(self, exc)
+        for w in self._session.warnings:
+            self.report({'WARNING'}, w)
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(obj.arap.live_interval, window=context.window)
+        wm.modal_handler_add(self)
+        self._header(context)
+        return {'RUNNING_MODAL'}
+
+    def execute(self, context):
+        # Scripts without an event loop: use api.start_session() instead.
+        self.report({'ERROR'}, "ARAP Live is interactive; from scripts use arap_deform.api.start_session()")
+        return {'CANCELLED'}
+
+    def modal(self, context, event):
+        try:
+            return self._modal(context, event)
+        except Exception as exc:  # noqa: BLE001 - never leave a half-running session behind
+            if self._session.active:
+                self._end(context, apply=False)
+            return _report_error(self, exc)
+
+    def _modal(self, context, event):
+        session = self._session
+        if session.request == 'APPLY' or (event.type in {'RET', 'NUMPAD_ENTER'} and event.value == 'PRESS'):
+            return self._end(context, apply=True)
+        if session.request == 'CANCEL' or (event.type in {'ESC', 'RIGHTMOUSE'} and event.value == 'PRESS'):
+            return self._end(context, apply=False)
+        if event.type == 'TIMER':
+            try:
+                if session.step(force=False) is not None:
+                    self._header(context)
+                    _redraw_3d_views(context)
+            except engine.SessionError as exc:
+                return self._end(context, apply=False, error=exc)
+        return {'PASS_THROUGH'}
+
+    def cancel(self, context):
+        # Blender calls this when the modal is aborted (file load, window closed).
+        if self._session is not None and self._session.active:
+            self._cleanup(context)
+            self._session.cancel()
+
+    def _header(self, context):
+        last = self._session.last
+        if context.area is not None and last is not None:
+            context.area.header_text_set(
+                "ARAP Live: %.1f ms/frame (solve %.1f ms), energy %.6g | Enter: apply, Esc/right-click: cancel"
+                % (last.total_ms, last.solve_ms, last.energy))
+
+    def _cleanup(self, context):
+        if self._timer is not None:
+            context.window_manager.event_timer_remove(self._timer)
+            self._timer = None
+        if context.area is not None:
+            context.area.header_text_set(None)
+
+    def _end(self, context, apply, error=None):
+        self._cleanup(context)
+        session = self._session
+        if apply:
+            session.finish()
+            self.report({'INFO'}, "ARAP Live applied")
+            return {'FINISHED'}
+        if error is not None and error.kind == 'TOPOLOGY':
+            session.active = False
+            engine.stop_session(session)
+            self.report({'ERROR'}, str(error) + " (the mesh was not restored)")
+            return {'CANCELLED'}
+        if error is not None and error.kind == 'MODE':
+            # Restore in Object Mode, then go back to the mode the user picked.
+            mode = session.obj.mode
+            with context.temp_override(active_object=session.obj, object=session.obj):
+                bpy.ops.object.mode_set(mode='OBJECT')
+                session.cancel()
+                bpy.ops.object.mode_set(mode=mode)
+        elif error is not None and error.kind == 'OBJECT':
+            engine.stop_session(session)
+        else:
+            session.cancel()
+        if error is not None:
+            self.report({'ERROR'}, str(error) + " (mesh restored)" if error.kind != 'OBJECT' else str(error))
+        return {'CANCELLED'}
+
+
+def _live_session(context):
+    """The Live session of the active mesh, else the running one (an empty may be active)."""
+    obj = _mesh_object(context)
+    session = engine.session_for(obj) if obj is not None else None
+    return session or engine.any_session()
+
+
+class ARAP_OT_live_apply(bpy.types.Operator):
+    """Keep the current Live pose and stop Live (one undo step)"""
+    bl_idname = "object.arap_live_apply"
+    bl_label = "Apply Live"
+
+    @classmethod
+    def poll(cls, context):
+        return _live_session(context) is not None
+
+    def execute(self, context):
+        _live_session(context).request = 'APPLY'
+        return {'FINISHED'}
+
+
+class ARAP_OT_live_cancel(bpy.types.Operator):
+    """Stop Live and restore the mesh exactly as it was"""
+    bl_idname = "object.arap_live_cancel"
+    bl_label = "Cancel Live"
+
+    @classmethod
+    def poll(cls, context):
+        return _live_session(context) is not None
+
+    def execute(self, context):
+        _live_session(context).request = 'CANCEL'
+        return {'FINISHED'}
+
+
+classes = (
+    ARAP_OT_add_handle_from_selection,
+    ARAP_OT_set_fixed_from_selection,
+    ARAP_OT_handle_add,
+    ARAP_OT_handle_remove,
+    ARAP_OT_deform,
+    ARAP_OT_reset,
+    ARAP_OT_set_rest_pose,
+    ARAP_OT_live,
+    ARAP_OT_live_apply,
+    ARAP_OT_live_cancel,
+)
+
+register, unregister = bpy.utils.register_classes_factory(classes)

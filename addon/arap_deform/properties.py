@@ -1,0 +1,127 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Settings saved in the .blend: Object.arap (ARAP_PG_settings).
+
+Bind pose of a handle's empty: `bind_matrix` holds the empty's world matrix
+(row-major, 16 floats) captured when the handle is created (operator or
+api.add_handle) and captured again by "Reset to Rest" and "Set Rest Pose".
+A handle's vertices then follow M_empty_now @ inverse(bind_matrix).
+"""
+
+import bpy
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
+                       FloatVectorProperty, IntProperty, PointerProperty, StringProperty)
+from bpy.types import PropertyGroup
+
+IDENTITY16 = (1.0, 0.0, 0.0, 0.0,
+              0.0, 1.0, 0.0, 0.0,
+              0.0, 0.0, 1.0, 0.0,
+              0.0, 0.0, 0.0, 1.0)
+
+# Enum identifiers -> names understood by the native module.
+WEIGHT_ITEMS = (
+    ('COTAN_CLAMPED', "Cotangent (clamped)",
+     "Cotangent weights with negative cotangents set to zero: robust on obtuse triangles"),
+    ('COTAN', "Cotangent", "Cotangent weights (Sorkine & Alexa 2007); may be negative on obtuse triangles"),
+    ('UNIFORM', "Uniform", "Every edge weighs 1: ignores the triangle shapes"),
+)
+INIT_ITEMS = (
+    ('LAPLACIAN', "Laplacian", "One Laplacian-editing step with identity rotations"),
+    ('DIFFERENTIAL', "Differential", "Uniform-Laplacian differential coordinates"),
+    ('NAIVE', "Naive", "The rest shape with only the constrained vertices moved"),
+)
+OUTPUT_ITEMS = (
+    ('AUTO', "Auto", "A shape key named \"ARAP\" when the mesh has shape keys, otherwise the mesh itself"),
+    ('MESH', "Mesh", "Overwrite the mesh coordinates (the rest shape is kept in the \"arap_rest\" attribute)"),
+    ('SHAPE_KEY', "Shape Key", "Write into a shape key named \"ARAP\": the basis (rest shape) is never touched"),
+)
+
+
+def _poll_empty(_self, obj):
+    return obj.type == 'EMPTY'
+
+
+class ARAP_PG_handle(PropertyGroup):
+    """A vertex group whose vertices follow an empty."""
+
+    group: StringProperty(
+        name="Vertex Group",
+        description="Vertices of this group follow the empty",
+        default="",
+    )
+    empty: PointerProperty(
+        name="Empty",
+        description="Empty object whose motion since the bind pose moves the group's vertices",
+        type=bpy.types.Object,
+        poll=_poll_empty,
+    )
+    bind_matrix: FloatVectorProperty(
+        name="Bind Matrix",
+        description="World matrix of the empty at bind time (row-major)",
+        size=16,
+        default=IDENTITY16,
+        options={'HIDDEN'},
+    )
+    has_bind: BoolProperty(
+        name="Has Bind Pose",
+        description="The bind matrix was captured",
+        default=False,
+        options={'HIDDEN'},
+    )
+
+
+class ARAP_PG_settings(PropertyGroup):
+    """ARAP settings of one mesh object."""
+
+    fixed_group: StringProperty(
+        name="Fixed Group",
+        description="Vertex group whose vertices stay at their rest position",
+        default="",
+    )
+    handles: CollectionProperty(type=ARAP_PG_handle, name="Handles")
+    active_handle: IntProperty(name="Active Handle", default=0, min=0)
+    iterations: IntProperty(
+        name="Iterations",
+        description="Local/global iterations of Deform",
+        default=10, min=1, max=1000,
+    )
+    live_iterations: IntProperty(
+        name="Live Iterations",
+        description="Iterations per update in Live mode (each starts from the previous result)",
+        default=2, min=1, max=100,
+    )
+    tolerance: FloatProperty(
+        name="Tolerance",
+        description="Stop when the energy drops by less than this fraction of itself (0: run all iterations)",
+        default=1e-6, min=0.0, max=1.0, precision=7, step=0.0001,
+    )
+    weights: EnumProperty(
+        name="Weights", description="Edge weights of the energy (changing them needs a new bind)",
+        items=WEIGHT_ITEMS, default='COTAN_CLAMPED',
+    )
+    init: EnumProperty(
+        name="First Guess", description="Positions the iterations start from",
+        items=INIT_ITEMS, default='LAPLACIAN',
+    )
+    output: EnumProperty(
+        name="Result", description="Where the deformed coordinates are written",
+        items=OUTPUT_ITEMS, default='AUTO',
+    )
+    live_interval: FloatProperty(
+        name="Live Interval",
+        description="Seconds between Live updates",
+        default=1.0 / 30.0, min=0.001, max=1.0,
+    )
+
+
+classes = (ARAP_PG_handle, ARAP_PG_settings)
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
+
+
+def register():
+    _register_classes()
+    bpy.types.Object.arap = PointerProperty(type=ARAP_PG_settings, name="ARAP Deform")
+
+
+def unregister():
+    del bpy.types.Object.arap
+    _unregister_classes()

@@ -1,0 +1,122 @@
+# Shared helpers of the Blender tests: scenes from Blender primitives only.
+import bmesh
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+
+def clear_scene():
+    """Remove every object and mesh (the add-on stays enabled)."""
+    for ob in list(bpy.data.objects):
+        bpy.data.objects.remove(ob)
+    for me in list(bpy.data.meshes):
+        bpy.data.meshes.remove(me)
+    from arap_deform import engine
+    engine.stop_all_sessions()
+    engine.clear_cache()
+
+
+def add_grid(x=12, y=4, size=2.0, name="Grid"):
+    """A flat strip of quads, x by y vertices, in Object Mode and active."""
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=x, y_subdivisions=y, size=size)
+    obj = bpy.context.active_object
+    obj.name = name
+    return obj
+
+
+def add_cylinder(vertices=16, depth=4.0, cuts=8, name="Bar"):
+    """An upright cylinder subdivided along its height (quads and two n-gon caps)."""
+    bpy.ops.mesh.primitive_cylinder_add(vertices=vertices, depth=depth, radius=0.5)
+    obj = bpy.context.active_object
+    obj.name = name
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    side = [e for e in bm.edges if abs(e.verts[0].co.z - e.verts[1].co.z) > 1e-6]
+    bmesh.ops.subdivide_edges(bm, edges=side, cuts=cuts, use_grid_fill=False)
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.data.update()
+    return obj
+
+
+def add_sphere(subdivisions=1, segments=32, rings=16, name="Sphere"):
+    """A UV sphere, optionally subdivided (Catmull-Clark applied) for size."""
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=segments, ring_count=rings, radius=1.0)
+    obj = bpy.context.active_object
+    obj.name = name
+    if subdivisions:
+        mod = obj.modifiers.new("sub", 'SUBSURF')
+        mod.levels = subdivisions
+        with bpy.context.temp_override(object=obj, active_object=obj):
+            bpy.ops.object.modifier_apply(modifier=mod.name)
+    return obj
+
+
+def coords(obj):
+    """Base mesh coordinates, float64 (n, 3)."""
+    buf = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", buf)
+    return buf.astype(np.float64).reshape(-1, 3)
+
+
+def raw_coords(obj):
+    buf = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", buf)
+    return buf
+
+
+def evaluated_coords(obj):
+    """Coordinates after shape keys and modifiers, float64 (n, 3)."""
+    dg = bpy.context.evaluated_depsgraph_get()
+    ev = obj.evaluated_get(dg)
+    me = ev.to_mesh()
+    buf = np.empty(len(me.vertices) * 3, np.float32)
+    me.vertices.foreach_get("co", buf)
+    ev.to_mesh_clear()
+    return buf.astype(np.float64).reshape(-1, 3)
+
+
+def group_where(obj, name, predicate):
+    """Vertex group `name` of the vertices whose local co satisfies predicate(co)."""
+    idx = [v.index for v in obj.data.vertices if predicate(v.co)]
+    g = obj.vertex_groups.new(name=name)
+    g.add(idx, 1.0, 'REPLACE')
+    return np.array(idx, np.int64)
+
+
+def add_empty(name, matrix=None):
+    empty = bpy.data.objects.new(name, None)
+    bpy.context.scene.collection.objects.link(empty)
+    if matrix is not None:
+        empty.matrix_world = matrix
+    return empty
+
+
+def triangles(obj):
+    me = obj.data
+    me.calc_loop_triangles()
+    t = np.empty(len(me.loop_triangles) * 3, np.int32)
+    me.loop_triangles.foreach_get("vertices", t)
+    return t.reshape(-1, 3)
+
+
+def np_matrix(m):
+    return np.array([tuple(r) for r in m], np.float64)
+
+
+def apply(m, pts):
+    """4x4 numpy or mathutils matrix applied to (n, 3) points."""
+    m = np_matrix(m) if isinstance(m, Matrix) else m
+    return pts @ m[:3, :3].T + m[:3, 3]
+
+
+def bar_with_handle(fixed_below=-1.5, handle_above=1.5):
+    """Cylinder with a fixed bottom, a handle on the top and its empty at the top centre."""
+    obj = add_cylinder()
+    fixed = group_where(obj, "bottom", lambda co: co.z < fixed_below)
+    top = group_where(obj, "top", lambda co: co.z > handle_above)
+    from arap_deform import api
+    api.set_fixed(obj, "bottom")
+    empty = add_empty("TopEmpty", Matrix.Translation((0, 0, 2.0)))
+    api.add_handle(obj, "top", empty)
+    return obj, empty, fixed, top

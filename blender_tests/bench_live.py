@@ -1,0 +1,232 @@
+# Benchmark of the Live per-frame path next to Blender's Laplacian Deform
+# modifier driven by a Hook modifier: same mesh, same anchors, same empty motion.
+#
+#   blender --background --factory-startup -noaudio --python-exit-code 1 \
+#       --python blender_tests/bench_live.py -- [--addon-dir BUILD/addon] \
+#       [--sizes 10000,50000,200000] [--frames 30] [--iterations 2] [--lap-budget 60] [--output DIR]
+#
+# --addon-dir: the folder holding the staged arap_deform package (BUILD/addon);
+# without it the add-on is enabled from BLENDER_USER_SCRIPTS.
+# Mesh: an open tube (quads) of about N vertices, radius 0.5, height 4. Anchors:
+# the bottom fifth (fixed) and the top 5 % (handle, following an Empty that
+# moves sideways up to 0.3 h). Per frame, both are timed from after the empty
+# moved until the deformed mesh is up to date:
+#   ours:    LiveSession.step() (read empties, warm-started solve, write) + view_layer.update()
+#   Blender: view_layer.update(), which evaluates Hook + Laplacian Deform
+# Not part of ctest (its name is not test_*.py). Writes blender_live.md / .json.
+import argparse
+import json
+import math
+import os
+import statistics
+import sys
+import time
+
+import bpy
+import numpy as np
+from mathutils import Matrix, Vector
+
+
+def parse_args():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    p = argparse.ArgumentParser(prog="bench_live.py")
+    p.add_argument("--addon-dir", default="")
+    p.add_argument("--sizes", default="10000,50000,200000")
+    p.add_argument("--frames", type=int, default=30)
+    p.add_argument("--iterations", type=int, default=2, help="our Live iterations and Laplacian Deform's")
+    p.add_argument("--lap-budget", type=float, default=60.0,
+                   help="seconds of Laplacian Deform frames per size; it stops after that (3 frames at least)")
+    p.add_argument("--output", default="results")
+    return p.parse_args(argv)
+
+
+def load_addon(addon_dir):
+    if addon_dir:
+        sys.path.insert(0, os.path.abspath(addon_dir))
+        import arap_deform
+        arap_deform.register()
+    else:
+        import addon_utils
+        if addon_utils.enable("arap_deform", default_set=True) is None:
+            raise SystemExit("could not enable arap_deform (give --addon-dir or set BLENDER_USER_SCRIPTS)")
+    from arap_deform import api
+    return api
+
+
+def clear_scene():
+    for ob in list(bpy.data.objects):
+        bpy.data.objects.remove(ob)
+    for me in list(bpy.data.meshes):
+        bpy.data.meshes.remove(me)
+
+
+def make_tube(name, vertices, radius=0.5, height=4.0):
+    """Open tube of quads: s segments around, r + 1 rings, s (r + 1) ~ `vertices`, near-square cells."""
+    s = max(8, int(round(math.sqrt(vertices * 2 * math.pi * radius / height))))
+    r = max(2, int(round(vertices / s)) - 1)
+    t = np.linspace(0, 2 * math.pi, s, endpoint=False)
+    z = np.linspace(0, height, r + 1)
+    co = np.empty((r + 1, s, 3), np.float32)
+    co[..., 0] = radius * np.cos(t)[None, :]
+    co[..., 1] = radius * np.sin(t)[None, :]
+    co[..., 2] = z[:, None]
+    ring, seg = np.meshgrid(np.arange(r), np.arange(s), indexing="ij")
+    a = ring * s + seg
+    b = ring * s + (seg + 1) % s
+    quads = np.stack([a, b, b + s, a + s], axis=-1).reshape(-1, 4).astype(np.int32)
+
+    me = bpy.data.meshes.new(name)
+    me.vertices.add(s * (r + 1))
+    me.vertices.foreach_set("co", co.ravel())
+    me.loops.add(quads.size)
+    me.loops.foreach_set("vertex_index", quads.ravel())
+    me.polygons.add(len(quads))
+    me.polygons.foreach_set("loop_start", np.arange(0, quads.size, 4, dtype=np.int32))
+    me.polygons.foreach_set("loop_total", np.full(len(quads), 4, np.int32))
+    me.update(calc_edges=True)
+    me.validate()
+    obj = bpy.data.objects.new(name, me)
+    bpy.context.scene.collection.objects.link(obj)
+    z = co.reshape(-1, 3)[:, 2]
+    fixed = np.nonzero(z <= 0.2 * height + 1e-6)[0]
+    top = np.nonzero(z >= 0.95 * height - 1e-6)[0]
+    return obj, fixed, top, height
+
+
+def add_group(obj, name, indices):
+    g = obj.vertex_groups.new(name=name)
+    g.add([int(i) for i in indices], 1.0, 'REPLACE')
+    return g
+
+
+def add_empty(name, location):
+    e = bpy.data.objects.new(name, None)
+    e.location = location
+    bpy.context.scene.collection.objects.link(e)
+    return e
+
+
+def offsets(frames, height):
+    """Sideways handle offsets, a smooth sweep out to 0.3 h and back."""
+    return [0.3 * height * math.sin(math.pi * (k + 1) / (frames + 1)) for k in range(frames)]
+
+
+def move(empty, start, dx):
+    empty.location = start + Vector((dx, 0.0, 0.0))
+
+
+def bench_ours(api, vertices, frames, iterations):
+    obj, fixed, top, h = make_tube("ArapTube", vertices)
+    add_group(obj, "fixed", fixed)
+    add_group(obj, "top", top)
+    start = Vector((0.0, 0.0, h))
+    empty = add_empty("ArapHandle", start)
+    bpy.context.view_layer.update()
+    api.set_fixed(obj, "fixed")
+    api.add_handle(obj, "top", empty)
+    t = time.perf_counter()
+    session = api.start_session(obj, bpy.context.scene, iterations=iterations)
+    bind_ms = (time.perf_counter() - t) * 1e3
+    wall, solve = [], []
+    for k, dx in enumerate([0.0] + offsets(frames, h)):  # frame 0 is a warm-up
+        move(empty, start, dx)
+        t = time.perf_counter()
+        stats = session.step()
+        bpy.context.view_layer.update()
+        if k:
+            wall.append((time.perf_counter() - t) * 1e3)
+            solve.append(stats.solve_ms)
+    session.finish()
+    return {"vertices": len(obj.data.vertices), "bind_ms": bind_ms, "frame_ms": wall, "solve_ms": solve}
+
+
+def bench_laplacian(vertices, frames, iterations, budget_s):
+    obj, fixed, top, h = make_tube("LapTube", vertices)
+    add_group(obj, "top", top)
+    add_group(obj, "anchors", np.concatenate([fixed, top]))
+    start = Vector((0.0, 0.0, h))
+    empty = add_empty("LapHandle", start)
+    hook = obj.modifiers.new("Hook", 'HOOK')
+    hook.object = empty
+    hook.vertex_group = "top"
+    hook.matrix_inverse = Matrix.Translation(-start)  # the empty's bind pose (object at the origin)
+    lap = obj.modifiers.new("LaplacianDeform", 'LAPLACIANDEFORM')
+    lap.vertex_group = "anchors"
+    lap.iterations = iterations
+    bpy.context.view_layer.objects.active = obj
+    bpy.context.view_layer.update()
+    t = time.perf_counter()
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        bpy.ops.object.laplaciandeform_bind(modifier=lap.name)
+    bpy.context.view_layer.update()  # the bind happens at this evaluation
+    bind_ms = (time.perf_counter() - t) * 1e3
+    wall = []
+    path = offsets(frames, h)
+    for k, dx in enumerate([0.0] + path):
+        move(empty, start, dx)
+        t = time.perf_counter()
+        bpy.context.view_layer.update()
+        if k:
+            wall.append((time.perf_counter() - t) * 1e3)
+        if len(wall) >= 3 and sum(wall) > 1e3 * budget_s:
+            break
+    last_dx = ([0.0] + path)[k]
+    # sanity: the evaluated top ring follows the empty
+    ev = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
+    co = np.empty(len(ev.vertices) * 3, np.float32)
+    ev.vertices.foreach_get("co", co)
+    moved = float(co.reshape(-1, 3)[top, 0].mean())
+    obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh_clear()
+    return {"vertices": len(obj.data.vertices), "bind_ms": bind_ms, "frame_ms": wall,
+            "top_dx": moved, "expected_top_dx": last_dx}
+
+
+def summary(ms):
+    q = statistics.quantiles(ms, n=4) if len(ms) > 1 else [ms[0]] * 3
+    return {"median": statistics.median(ms), "p25": q[0], "p75": q[2], "min": min(ms), "max": max(ms)}
+
+
+def main():
+    args = parse_args()
+    api = load_addon(args.addon_dir)
+    rows = []
+    for n in [int(x) for x in args.sizes.split(",") if x]:
+        clear_scene()
+        ours = bench_ours(api, n, args.frames, args.iterations)
+        clear_scene()
+        lap = bench_laplacian(n, args.frames, args.iterations, args.lap_budget)
+        clear_scene()
+        row = {"target_vertices": n, "ours": ours, "laplacian": lap,
+               "ours_frame": summary(ours["frame_ms"]), "ours_solve": summary(ours["solve_ms"]),
+               "laplacian_frame": summary(lap["frame_ms"])}
+        row["ratio"] = row["ours_frame"]["median"] / row["laplacian_frame"]["median"]
+        rows.append(row)
+        print("%7d vertices: ours bind %.1f ms, frame %.2f ms (solve %.2f) | Laplacian Deform bind %.1f ms, "
+              "frame %.2f ms | ratio %.2f" % (ours["vertices"], ours["bind_ms"], row["ours_frame"]["median"],
+                                             row["ours_solve"]["median"], lap["bind_ms"],
+                                             row["laplacian_frame"]["median"], row["ratio"]), flush=True)
+
+    os.makedirs(args.output, exist_ok=True)
+    doc = {"blender": bpy.app.version_string, "frames": args.frames, "iterations": args.iterations, "rows": rows}
+    with open(os.path.join(args.output, "blender_live.json"), "w") as f:
+        json.dump(doc, f, indent=1)
+    with open(os.path.join(args.output, "blender_live.md"), "w") as f:
+        f.write("# Live per frame vs Laplacian Deform + Hook (Blender %s)\n\n" % bpy.app.version_string)
+        f.write("Open tube, bottom fifth fixed, top 5 %% on an Empty moved sideways up to 0.3 h over %d frames; "
+                "%d iteration(s) per frame for both. ms from the empty's move until the mesh is up to date: "
+                "median [quartiles].\n\n" % (args.frames, args.iterations))
+        f.write("| V | ours bind | ours frame | ours solve | LapDeform bind | LapDeform frame | LapDeform frames "
+                "| ours/LapDeform |\n")
+        f.write("|---:|---:|---:|---:|---:|---:|---:|---:|\n")
+        for r in rows:
+            o, s, l = r["ours_frame"], r["ours_solve"], r["laplacian_frame"]
+            f.write("| %d | %.1f | %.2f [%.2f–%.2f] | %.2f | %.1f | %.2f [%.2f–%.2f] | %d | %.3f |\n" % (
+                r["ours"]["vertices"], r["ours"]["bind_ms"], o["median"], o["p25"], o["p75"], s["median"],
+                r["laplacian"]["bind_ms"], l["median"], l["p25"], l["p75"], len(r["laplacian"]["frame_ms"]),
+                r["ratio"]))
+    print("wrote %s" % os.path.join(args.output, "blender_live.md"))
+    sys.stdout.flush()
+    os._exit(0)
+
+
+main()

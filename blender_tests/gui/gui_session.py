@@ -1,0 +1,161 @@
+# Blender side of the GUI suite (Blender with its UI, under Xvfb).
+#
+#   blender --factory-startup -noaudio --window-geometry 0 0 1280 800 --python gui_session.py -- <out dir>
+#
+# Sets up a bar (fixed bottom, handle on top driven by an empty), then talks
+# to drive_gui.py through files in <out dir>:
+#   state.json   written every 0.2 s: vertex hash, top centroid, empty location, Live state, viewport centre
+#   cmd_*        commands from the driver: cmd_live (start Live), cmd_select_empty, cmd_quit
+import hashlib
+import json
+import os
+import sys
+import traceback
+
+import addon_utils
+import bmesh
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+OUT = sys.argv[sys.argv.index("--") + 1]
+STATE = {"ready": False, "errors": []}
+
+
+def view3d():
+    win = bpy.context.window_manager.windows[0]
+    for area in win.screen.areas:
+        if area.type == 'VIEW_3D':
+            region = next(r for r in area.regions if r.type == 'WINDOW')
+            return win, area, region
+    raise RuntimeError("no 3D viewport")
+
+
+def setup():
+    addon_utils.enable("arap_deform", default_set=True)
+    from arap_deform import api
+    for ob in list(bpy.data.objects):
+        bpy.data.objects.remove(ob)
+    bpy.ops.mesh.primitive_cylinder_add(vertices=16, depth=2.0, radius=0.3)
+    obj = bpy.context.active_object
+    obj.name = "Bar"
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    side = [e for e in bm.edges if abs(e.verts[0].co.z - e.verts[1].co.z) > 1e-6]
+    bmesh.ops.subdivide_edges(bm, edges=side, cuts=12, use_grid_fill=False)
+    bm.to_mesh(obj.data)
+    bm.free()
+    for name, pred in (("bottom", lambda z: z < -0.7), ("top", lambda z: z > 0.7)):
+        g = obj.vertex_groups.new(name=name)
+        g.add([v.index for v in obj.data.vertices if pred(v.co.z)], 1.0, 'REPLACE')
+    api.set_fixed(obj, "bottom")
+    empty = bpy.data.objects.new("TopEmpty", None)
+    empty.empty_display_type = 'SPHERE'
+    empty.empty_display_size = 0.3
+    bpy.context.scene.collection.objects.link(empty)
+    empty.matrix_world = Matrix.Translation((0.0, 0.0, 1.0))
+    api.add_handle(obj, "top", empty)
+    obj.arap.live_iterations = 3
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    STATE["top"] = [v.index for v in obj.data.vertices if v.co.z > 0.7]
+    STATE["rest_hash"] = coords_hash(obj)
+    # Show the sidebar on the ARAP tab so the panel is drawn (and screenshotted).
+    win, area, region = view3d()
+    area.spaces.active.show_region_ui = True
+    # The driver switches tabs with Ctrl+Tab over the sidebar; this hook,
+    # appended to the add-on's panel, tells it when the ARAP panel was drawn.
+    bpy.types.ARAP_PT_main.append(panel_drawn)
+    # An undo step for the set-up, so Ctrl+Z can come back to it.
+    with bpy.context.temp_override(window=win, area=area, region=region):
+        bpy.ops.ed.undo_push(message="ARAP test set-up")
+    STATE["ready"] = True
+
+
+def panel_drawn(_panel, _context):
+    STATE["panel_drawn"] = True
+
+
+def coords_hash(obj):
+    buf = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", buf)
+    return hashlib.sha1(buf.tobytes()).hexdigest()
+
+
+def start_live():
+    win, area, region = view3d()
+    obj = bpy.data.objects["Bar"]
+    with bpy.context.temp_override(window=win, area=area, region=region, active_object=obj, object=obj):
+        result = bpy.ops.object.arap_live('INVOKE_DEFAULT')
+    STATE["live_invoke"] = list(result)
+    # G must move the empty: make it the only selected, active object.
+    empty = bpy.data.objects["TopEmpty"]
+    for ob in bpy.context.view_layer.objects:
+        ob.select_set(False)
+    empty.select_set(True)
+    bpy.context.view_layer.objects.active = empty
+
+
+def screenshot(name):
+    win, area, _region = view3d()
+    path = os.path.join(OUT, name)
+    with bpy.context.temp_override(window=win, area=area):
+        bpy.ops.screen.screenshot(filepath=path)
+
+
+def write_state():
+    from arap_deform import engine
+    obj = bpy.data.objects.get("Bar")
+    if obj is not None and STATE["ready"]:
+        co = np.empty(len(obj.data.vertices) * 3, np.float32)
+        obj.data.vertices.foreach_get("co", co)
+        co = co.reshape(-1, 3)
+        STATE["hash"] = coords_hash(obj)
+        STATE["top_centroid"] = co[STATE["top"]].mean(axis=0).tolist()
+        STATE["empty_location"] = list(bpy.data.objects["TopEmpty"].matrix_world.translation)
+        session = engine.session_for(obj)
+        STATE["live_running"] = session is not None
+        if session is not None and session.last is not None:
+            STATE["frame_ms"] = session.last.total_ms
+            STATE["energy"] = session.last.energy
+        win, area, region = view3d()
+        STATE["viewport_centre"] = [region.x + region.width // 2, win.height - (region.y + region.height // 2)]
+        ui = next(r for r in area.regions if r.type == 'UI')
+        # Screen x of the sidebar's tab column (right edge) and y of its top.
+        STATE["sidebar_tabs"] = [ui.x + ui.width - 12, win.height - (ui.y + ui.height)]
+    tmp = os.path.join(OUT, "state.json.tmp")
+    with open(tmp, "w") as f:
+        json.dump(STATE, f)
+    os.replace(tmp, os.path.join(OUT, "state.json"))
+
+
+def take(cmd):
+    path = os.path.join(OUT, cmd)
+    if os.path.exists(path):
+        arg = open(path).read().strip()
+        os.remove(path)
+        return arg if arg else True
+    return None
+
+
+def tick():
+    try:
+        if not STATE["ready"]:
+            setup()
+        if take("cmd_live"):
+            start_live()
+        shot = take("cmd_screenshot")
+        if shot:
+            screenshot(shot)
+        if take("cmd_quit"):
+            write_state()
+            bpy.ops.wm.quit_blender()
+            return None
+        write_state()
+    except Exception:  # noqa: BLE001 - reported to the driver through state.json
+        STATE["errors"].append(traceback.format_exc())
+        write_state()
+    return 0.2
+
+
+bpy.app.timers.register(tick, first_interval=1.0)

@@ -1,0 +1,221 @@
+# arap-batch end to end: the launcher (plain python3) runs Blender workers on
+# .blend files this test generates; report, exit code, outputs, inputs untouched,
+# --in-place, a crashing worker, Ctrl-C, and --bake.
+#
+# The launcher is the build tree's arap-batch, found next to the staged add-on
+# (<build>/addon/arap_deform -> <build>/arap-batch) or via ARAP_BATCH_LAUNCHER.
+import glob
+import hashlib
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+import bpy
+import numpy as np
+
+import arap_test_utils as U
+import batch_scenes as S
+import arap_deform
+from arap_deform import bake
+
+PYTHON = "/usr/bin/python3" if os.path.exists("/usr/bin/python3") else shutil.which("python3")
+
+
+def find_launcher():
+    env = os.environ.get("ARAP_BATCH_LAUNCHER")
+    if env:
+        return env
+    staged = os.path.dirname(os.path.realpath(arap_deform.__file__))
+    return os.path.join(os.path.dirname(os.path.dirname(staged)), "arap-batch")
+
+
+LAUNCHER = find_launcher()
+
+
+def run_batch(*args, timeout=300):
+    p = subprocess.run([PYTHON, LAUNCHER] + [str(a) for a in args], capture_output=True, text=True,
+                       timeout=timeout)
+    return p.returncode, p.stdout + p.stderr
+
+
+def sha(path):
+    with open(path, "rb") as f:
+        return hashlib.sha256(f.read()).hexdigest()
+
+
+def hashes(folder):
+    return {p: sha(p) for p in sorted(glob.glob(os.path.join(folder, "*")))}
+
+
+def temp_leftovers(*folders):
+    return [n for d in folders for n in os.listdir(d) if "arap-tmp" in n or ".tmp-" in n or n.endswith("@")]
+
+
+def load_object(path, name="Bar"):
+    """(mesh coords float64 (n, 3), shape key names, modifiers) of object `name` in a .blend."""
+    with bpy.data.libraries.load(path, link=False) as (_src, dst):
+        dst.objects = [name]
+    obj = dst.objects[0]
+    keys = [kb.name for kb in obj.data.shape_keys.key_blocks] if obj.data.shape_keys else []
+    mods = [(m.type, m.filepath) for m in obj.modifiers if m.type == 'MESH_CACHE']
+    out = U.coords(obj), keys, mods
+    mesh = obj.data
+    bpy.data.objects.remove(obj)
+    bpy.data.meshes.remove(mesh)
+    return out
+
+
+class Batch(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        assert os.path.isfile(LAUNCHER), "launcher not found: %s" % LAUNCHER
+        cls.root = tempfile.mkdtemp(prefix="arap_batch_")
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.root, ignore_errors=True)
+
+    def folder(self, name):
+        d = os.path.join(self.root, self._testMethodName, name)
+        os.makedirs(d)
+        return d
+
+    def test_end_to_end_with_failures(self):
+        src, out = self.folder("in"), self.folder("out")
+        for k in range(3):
+            S.make_good(os.path.join(src, "good%d.blend" % k), dx=0.3 + 0.2 * k)
+        S.make_corrupt(os.path.join(src, "corrupt.blend"))
+        S.make_missing_empty(os.path.join(src, "no_empty.blend"))
+        S.make_no_settings(os.path.join(src, "no_settings.blend"))
+        before = hashes(src)
+        report = os.path.join(self.root, "e2e.json")
+        code, text = run_batch(src, "--output", out, "--jobs", 2, "--frame", 1, "--report", report)
+        self.assertEqual(code, 1, text)
+        self.assertEqual(hashes(src), before)  # inputs byte-identical
+        self.assertIn("6 file(s): 3 ok, 3 failed", text)
+        for name in ("corrupt.blend", "no_empty.blend", "no_settings.blend"):
+            self.assertIn("failed: %s" % os.path.join(src, name), text)
+        with open(report) as f:
+            r = json.load(f)
+        self.assertEqual((r["ok"], r["failed"], r["interrupted"]), (3, 3, False))
+        by_name = {os.path.basename(f["input"]): f for f in r["files"]}
+        self.assertIn("cannot open", by_name["corrupt.blend"]["reason"])
+        self.assertIn("no empty", by_name["no_empty.blend"]["reason"])
+        self.assertIn("no mesh object has ARAP settings", by_name["no_settings.blend"]["reason"])
+        for k in range(3):
+            f = by_name["good%d.blend" % k]
+            self.assertEqual((f["status"], f["reason"]), ("ok", ""))
+            self.assertEqual(f["output"], os.path.join(out, "good%d.blend" % k))
+            self.assertEqual(f["objects"][0]["name"], "Bar")
+            self.assertGreater(f["ms"], 0)
+            posed, _keys, _mods = load_object(f["output"])
+            rest, _keys, _mods = load_object(f["input"])
+            moved = np.linalg.norm(posed - rest, axis=1)
+            self.assertAlmostEqual(moved.max(), 0.3 + 0.2 * k, places=4)  # the handle moved by dx
+        self.assertEqual(sorted(os.listdir(out)), ["good0.blend", "good1.blend", "good2.blend"])
+        self.assertEqual(temp_leftovers(src, out), [])
+
+    def test_usage_errors_exit_2(self):
+        src = self.folder("in")
+        S.make_good(os.path.join(src, "a.blend"))
+        self.assertEqual(run_batch(src)[0], 2)                                  # no --output
+        self.assertEqual(run_batch(src, "--output", src)[0], 2)                 # would overwrite inputs
+        self.assertEqual(run_batch(src, "--output", src + "x", "--bake", "5:1")[0], 2)
+        self.assertEqual(run_batch(os.path.join(src, "missing.blend"), "--in-place")[0], 2)
+
+    def test_in_place(self):
+        src = self.folder("in")
+        path = S.make_good(os.path.join(src, "a.blend"))
+        before = sha(path)
+        code, text = run_batch(path, "--in-place", "--jobs", 1)
+        self.assertEqual(code, 0, text)
+        self.assertNotEqual(sha(path), before)
+        self.assertEqual(os.listdir(src), ["a.blend"])  # no temp file, no .blend1
+        posed, _k, _m = load_object(path)
+        self.assertGreater(posed[:, 0].max(), 0.5 + 0.5)  # radius 0.5 + the handle's dx 0.6
+
+    def test_crashed_worker_is_restarted(self):
+        src, out = self.folder("in"), self.folder("out")
+        for name in ("a", "b_crash", "c", "d"):
+            S.make_good(os.path.join(src, name + ".blend"))
+        # A Blender wrapper whose worker segfaults on files named *crash*.
+        wrapper = os.path.join(self.root, "crashing-blender")
+        with open(wrapper, "w") as f:
+            f.write("#!%s\nimport os, sys\nargs = sys.argv[1:]\ni = args.index('--python-expr') + 1\n"
+                    "pre = args[i].rsplit('from ', 1)[0]\n"
+                    "args[i] = pre + ('import os, signal; from arap_deform import batch_worker as w; p = w.process; '"
+                    "'w.process = lambda e, j: os.kill(os.getpid(), signal.SIGSEGV) if \"b_crash\" in e[\"input\"] "
+                    "else p(e, j); ') + args[i][len(pre):]\n"
+                    "os.execv(%r, [%r] + args)\n" % (PYTHON, bpy.app.binary_path, bpy.app.binary_path))
+        os.chmod(wrapper, 0o755)
+        report = os.path.join(self.root, "crash.json")
+        code, text = run_batch(src, "--output", out, "--jobs", 1, "--blender", wrapper, "--report", report)
+        self.assertEqual(code, 1, text)
+        with open(report) as f:
+            files = {os.path.basename(x["input"]): x for x in json.load(f)["files"]}
+        self.assertEqual(files["b_crash.blend"]["status"], "failed")
+        self.assertIn("worker crashed", files["b_crash.blend"]["reason"])
+        for name in ("a", "c", "d"):
+            self.assertEqual(files[name + ".blend"]["status"], "ok", text)
+        self.assertEqual(sorted(os.listdir(out)), ["a.blend", "c.blend", "d.blend"])
+        self.assertEqual(temp_leftovers(out), [])
+
+    def test_sigint_leaves_inputs_and_finished_outputs(self):
+        src, out = self.folder("in"), self.folder("out")
+        for k in range(16):
+            S.make_good(os.path.join(src, "f%02d.blend" % k), vertices=64, cuts=120)
+        before = hashes(src)
+        report = os.path.join(self.root, "sigint.json")
+        p = subprocess.Popen([PYTHON, LAUNCHER, src, "--output", out, "--jobs", "1", "--report", report],
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        lines = []
+        for line in p.stdout:
+            lines.append(line)
+            if line.startswith("[1/16] ok"):
+                p.send_signal(signal.SIGINT)
+                break
+        rest = p.communicate(timeout=60)[0]
+        text = "".join(lines) + rest
+        self.assertEqual(p.returncode, 130, text)
+        self.assertEqual(hashes(src), before)
+        self.assertEqual(temp_leftovers(src, out), [])
+        with open(report) as f:
+            r = json.load(f)
+        self.assertTrue(r["interrupted"])
+        done = [f for f in r["files"] if f["status"] == "ok"]
+        self.assertGreaterEqual(len(done), 1)
+        self.assertLess(len(done), 16)
+        self.assertEqual(sorted(os.listdir(out)), sorted(os.path.basename(f["output"]) for f in done))
+        for f in done:  # every finished output is a whole, readable .blend
+            posed, _k, _m = load_object(f["output"])
+            self.assertGreater(posed[:, 0].max(), 1.0)
+
+    def test_bake_shape_keys_and_pc2(self):
+        src, out_sk, out_pc = self.folder("in"), self.folder("sk"), self.folder("pc2")
+        path = S.make_animated(os.path.join(src, "anim.blend"), frames=(1, 4))
+        code, text = run_batch(path, "--output", out_sk, "--bake", "1:4")
+        self.assertEqual(code, 0, text)
+        _co, keys, _mods = load_object(os.path.join(out_sk, "anim.blend"))
+        self.assertEqual(keys, ["Basis"] + [bake.key_name(f) for f in range(1, 5)])
+        code, text = run_batch(path, "--output", out_pc, "--bake", "1:4", "--bake-format", "pc2",
+                               "--iterations", 300)
+        self.assertEqual(code, 0, text)
+        self.assertEqual(sorted(os.listdir(out_pc)), ["anim.blend", "anim_Bar.pc2"])
+        start, _rate, data = bake.read_pc2(os.path.join(out_pc, "anim_Bar.pc2"))
+        self.assertEqual((start, data.shape[0]), (1.0, 4))
+        _co, keys, mods = load_object(os.path.join(out_pc, "anim.blend"))
+        # Appending made the path absolute: it must name the .pc2 next to the output.
+        self.assertEqual(len(mods), 1)
+        self.assertEqual(os.path.normpath(bpy.path.abspath(mods[0][1], start=out_pc)),
+                         os.path.join(out_pc, "anim_Bar.pc2"))
+        self.assertGreater(data[3][:, 0].max() - data[0][:, 0].max(), 0.5)  # x 0.2 -> 0.8
+
+
+if __name__ == "__main__":
+    unittest.main()

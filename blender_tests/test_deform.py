@@ -1,0 +1,160 @@
+# One-shot Deform: equals the native module's direct result, honours object and
+# empty transforms, triangulates quads/n-gons, writes a shape key when asked,
+# ends at a stationary point of the ARAP energy.
+import unittest
+
+import bpy
+import numpy as np
+from mathutils import Euler, Matrix
+
+import arap_test_utils as U
+from arap_deform import api, engine
+
+
+def posed_empty_matrix():
+    return Matrix.Translation((0.6, -0.3, 1.7)) @ Euler((0.4, 0.2, 0.7)).to_matrix().to_4x4()
+
+
+class Deform(unittest.TestCase):
+    def setUp(self):
+        U.clear_scene()
+
+    def native_reference(self, obj, fixed, handle, empty_bind, empty_now, iterations, init="laplacian",
+                         tolerance=0.0):
+        """Bind and solve with the native module directly, targets computed here."""
+        rest = U.coords(obj)
+        m_obj = U.np_matrix(obj.matrix_world)
+        a = np.linalg.inv(m_obj) @ U.np_matrix(empty_now) @ np.linalg.inv(U.np_matrix(empty_bind)) @ m_obj
+        constrained = np.concatenate([fixed, handle])
+        targets = np.concatenate([rest[fixed], U.apply(a, rest[handle])])
+        s = engine.native().Solver()
+        s.bind(rest, U.triangles(obj), constrained, weights="cotan-clamped", init=init,
+               max_iterations=iterations, tolerance=tolerance)
+        s.solve(targets)
+        return s, rest, constrained, targets
+
+    def test_equals_native_direct_result(self):
+        obj, empty, fixed, top = U.bar_with_handle()
+        bind = empty.matrix_world.copy()
+        empty.matrix_world = posed_empty_matrix()
+        s, _rest, _c, _t = self.native_reference(obj, fixed, top, bind, empty.matrix_world, 10, tolerance=1e-6)
+        result = bpy.ops.object.arap_deform(iterations=10)
+        self.assertEqual(result, {'FINISHED'})
+        np.testing.assert_allclose(U.coords(obj), s.positions(), atol=1e-5)
+
+    def test_operator_redo_properties_and_result(self):
+        obj, empty, _f, _t = U.bar_with_handle()
+        empty.location.x += 0.5
+        r = api.deform(obj, iterations=3, tolerance=0.0)
+        self.assertEqual(r.iterations, 3)
+        self.assertEqual(len(r.energies), 3)
+        self.assertEqual(r.output, 'MESH')
+        self.assertGreaterEqual(r.bind_ms, 0.0)
+        self.assertTrue(r.energies[-1] <= r.initial_energy + 1e-9)
+        r2 = api.deform(obj, iterations=3, tolerance=0.0)
+        self.assertTrue(r2.cached_bind, "the second deform with unchanged inputs reuses the bind")
+
+    def test_repeat_deform_uses_rest_not_previous_result(self):
+        obj, empty, _f, _t = U.bar_with_handle()
+        rest = U.coords(obj)
+        empty.location.x += 0.5
+        api.deform(obj, iterations=5)
+        first = U.coords(obj)
+        api.deform(obj, iterations=5)
+        np.testing.assert_array_equal(U.coords(obj), first)
+        api.reset(obj)
+        np.testing.assert_array_equal(U.coords(obj), rest)
+
+    def test_set_rest_pose_takes_current_shape(self):
+        obj, empty, _f, top = U.bar_with_handle()
+        empty.location.x += 0.5
+        api.deform(obj)
+        posed = U.coords(obj)
+        api.set_rest_pose(obj)  # posed shape = new rest, empty's pose = new bind pose
+        api.deform(obj)
+        np.testing.assert_allclose(U.coords(obj), posed, atol=1e-6)
+        api.reset(obj)
+        np.testing.assert_array_equal(U.coords(obj), posed)
+
+    def test_rigid_motion_of_everything_constrained(self):
+        obj = U.add_cylinder()
+        obj.matrix_world = (Matrix.Translation((1.0, 2.0, -0.5)) @ Euler((0.3, -0.5, 1.1)).to_matrix().to_4x4()
+                            @ Matrix.Scale(1.5, 4))
+        U.group_where(obj, "ends", lambda co: abs(co.z) > 1.5)
+        empty = U.add_empty("E", Matrix.Translation((0.2, 0.1, 0.3)) @ Euler((0.1, 0.2, 0.3)).to_matrix().to_4x4())
+        api.add_handle(obj, "ends", empty)
+        rest = U.coords(obj)
+        motion = Matrix.Translation((0.4, -1.0, 0.8)) @ Euler((0.7, 0.1, -0.4)).to_matrix().to_4x4()
+        empty.matrix_world = motion @ empty.matrix_world
+        r = api.deform(obj, iterations=150, tolerance=0.0)  # large rotation: ARAP converges slowly
+        m_obj = U.np_matrix(obj.matrix_world)
+        expected = U.apply(np.linalg.inv(m_obj) @ U.np_matrix(motion) @ m_obj, rest)
+        np.testing.assert_allclose(U.coords(obj), expected, atol=2e-5)
+        self.assertLess(r.energy, 1e-8)
+
+    def test_scaled_empty_moves_handle_vertices_by_full_transform(self):
+        obj, empty, _fixed, top = U.bar_with_handle()
+        obj.matrix_world = Matrix.Translation((0, 0, 1)) @ Euler((0.0, 0.0, 0.6)).to_matrix().to_4x4()
+        api.reset(obj)  # the empty's bind pose is captured again
+        rest = U.coords(obj)
+        bind = empty.matrix_world.copy()
+        empty.matrix_world = (Matrix.Translation((0.3, 0.0, 0.4)) @ Euler((0.5, 0.0, 0.0)).to_matrix().to_4x4()
+                              @ Matrix.Scale(1.3, 4)) @ bind
+        api.deform(obj, iterations=5)
+        m_obj = U.np_matrix(obj.matrix_world)
+        a = np.linalg.inv(m_obj) @ U.np_matrix(empty.matrix_world) @ np.linalg.inv(U.np_matrix(bind)) @ m_obj
+        np.testing.assert_allclose(U.coords(obj)[top], U.apply(a, rest[top]), atol=1e-5)
+
+    def test_quads_and_ngons_are_triangulated(self):
+        obj, empty, _f, _t = U.bar_with_handle()
+        self.assertTrue(any(len(p.vertices) > 4 for p in obj.data.polygons), "cylinder caps are n-gons")
+        n_loops = len(obj.data.loops)
+        empty.location.y += 0.7
+        api.deform(obj)
+        self.assertEqual(len(obj.data.loops), n_loops, "faces and loops are untouched")
+        self.assertTrue(np.isfinite(U.coords(obj)).all())
+
+    def test_shape_key_output_keeps_rest(self):
+        obj, empty, _f, top = U.bar_with_handle()
+        obj.shape_key_add(name="Basis")
+        rest = U.coords(obj)
+        empty.location.x += 0.8
+        r = api.deform(obj)
+        self.assertEqual(r.output, 'SHAPE_KEY')
+        key = obj.data.shape_keys.key_blocks["ARAP"]
+        self.assertEqual(key.value, 1.0)
+        basis = np.empty(len(rest) * 3, np.float32)
+        obj.data.shape_keys.reference_key.data.foreach_get("co", basis)
+        np.testing.assert_array_equal(basis.reshape(-1, 3), rest.astype(np.float32))
+        ev = U.evaluated_coords(obj)
+        self.assertGreater(np.abs(ev[top] - rest[top]).max(), 0.5)
+        api.reset(obj)
+        np.testing.assert_allclose(U.evaluated_coords(obj), rest, atol=1e-6)
+
+    def test_modifiers_above_keep_working(self):
+        obj, empty, _f, _t = U.bar_with_handle()
+        obj.modifiers.new("sub", 'SUBSURF')
+        empty.location.x += 0.5
+        api.deform(obj)
+        self.assertGreater(len(U.evaluated_coords(obj)), len(obj.data.vertices))
+
+    def test_result_is_stationary_point(self):
+        obj, empty, fixed, top = U.bar_with_handle()
+        bind = empty.matrix_world.copy()
+        empty.matrix_world = posed_empty_matrix()
+        api.deform(obj, iterations=300, tolerance=0.0)
+        result = U.coords(obj)
+        s, rest, constrained, targets = self.native_reference(obj, fixed, top, bind, empty.matrix_world, 1,
+                                                              init="naive")
+        free = np.setdiff1d(np.arange(len(rest)), constrained)
+        start = rest.copy()
+        start[constrained] = targets
+        g0 = np.linalg.norm(s.energy_gradient(start)[free])
+        g = np.linalg.norm(s.energy_gradient(result)[free])
+        self.assertGreater(g0, 1e-3)
+        # float32 storage in the mesh limits how small the gradient can get.
+        self.assertLess(g / g0, 1e-2, "gradient on free vertices %.3g vs initial %.3g" % (g, g0))
+
+
+if __name__ == "__main__":
+    unittest.main()

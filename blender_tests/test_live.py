@@ -1,0 +1,129 @@
+# LiveSession (the logic behind the modal Live operator), driven without an event loop.
+import unittest
+
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+import arap_test_utils as U
+from arap_deform import api, engine
+
+
+def move(empty, dx=0.0, dz=0.0):
+    empty.matrix_world = Matrix.Translation((dx, 0.0, dz)) @ empty.matrix_world
+    bpy.context.view_layer.update()
+
+
+class Live(unittest.TestCase):
+    def setUp(self):
+        U.clear_scene()
+        self.obj, self.empty, self.fixed, self.top = U.bar_with_handle()
+
+    def test_cancel_restores_bit_for_bit(self):
+        before = U.raw_coords(self.obj).copy()
+        s = api.start_session(self.obj, bpy.context.scene)
+        for i in range(5):
+            move(self.empty, dx=0.1 * i)
+            stats = s.step()
+            self.assertGreater(stats.solve_ms, 0.0)
+        self.assertFalse(np.array_equal(U.raw_coords(self.obj), before))
+        s.cancel()
+        self.assertTrue(np.array_equal(U.raw_coords(self.obj), before))
+        self.assertIsNone(engine.session_for(self.obj))
+        self.assertNotIn("arap_rest", self.obj.data.attributes)
+
+    def test_cancel_restores_shape_keys(self):
+        self.obj.shape_key_add(name="Basis")
+        s = api.start_session(self.obj, bpy.context.scene)
+        move(self.empty, dx=0.5)
+        s.step()
+        self.assertIn("ARAP", self.obj.data.shape_keys.key_blocks)
+        s.cancel()
+        self.assertNotIn("ARAP", self.obj.data.shape_keys.key_blocks)
+
+    def test_finish_keeps_result_and_stores_rest(self):
+        rest = U.raw_coords(self.obj).copy()
+        s = api.start_session(self.obj, bpy.context.scene)
+        move(self.empty, dz=0.5)
+        for _ in range(30):
+            s.step()
+        s.finish()
+        self.assertGreater(np.abs(U.coords(self.obj)[self.top] - rest.reshape(-1, 3)[self.top]).max(), 0.4)
+        api.reset(self.obj)
+        self.assertTrue(np.array_equal(U.raw_coords(self.obj), rest))
+
+    def test_warm_start_converges_to_one_shot(self):
+        move(self.empty, dx=0.6)
+        s = api.start_session(self.obj, bpy.context.scene, iterations=1, write=False)
+        for _ in range(400):
+            s.step()
+        live = s.positions().reshape(-1, 3).astype(np.float64)
+        s.cancel()
+        api.deform(self.obj, iterations=400, tolerance=0.0)
+        np.testing.assert_allclose(live, U.coords(self.obj), atol=1e-3)
+
+    def test_write_false_never_touches_mesh(self):
+        before = U.raw_coords(self.obj).copy()
+        s = api.start_session(self.obj, bpy.context.scene, write=False)
+        move(self.empty, dx=0.3)
+        s.step()
+        self.assertTrue(np.array_equal(U.raw_coords(self.obj), before))
+        self.assertFalse(np.array_equal(s.positions(), before))
+        s.cancel()
+
+    def test_step_skips_when_nothing_moved_and_converged(self):
+        s = api.start_session(self.obj, bpy.context.scene, iterations=50)
+        s.step()
+        if s.converged:
+            self.assertIsNone(s.step(force=False))
+        move(self.empty, dx=0.2)
+        self.assertIsNotNone(s.step(force=False))
+        s.cancel()
+
+    def test_deleted_empty_stops(self):
+        before = U.raw_coords(self.obj).copy()
+        s = api.start_session(self.obj, bpy.context.scene)
+        move(self.empty, dx=0.3)
+        s.step()
+        bpy.data.objects.remove(self.empty)
+        with self.assertRaises(engine.SessionError) as cm:
+            s.step()
+        self.assertEqual(cm.exception.kind, 'EMPTY')
+        self.assertIn("top", str(cm.exception))
+        s.cancel()
+        self.assertTrue(np.array_equal(U.raw_coords(self.obj), before))
+
+    def test_topology_change_stops(self):
+        s = api.start_session(self.obj, bpy.context.scene)
+        s.step()
+        self.obj.data.vertices.add(1)
+        with self.assertRaises(engine.SessionError) as cm:
+            s.step()
+        self.assertEqual(cm.exception.kind, 'TOPOLOGY')
+        with self.assertRaises(ValueError):
+            s.cancel()
+
+    def test_leaving_object_mode_stops(self):
+        s = api.start_session(self.obj, bpy.context.scene)
+        s.step()
+        bpy.ops.object.mode_set(mode='EDIT')
+        try:
+            with self.assertRaises(engine.SessionError) as cm:
+                s.step()
+            self.assertEqual(cm.exception.kind, 'MODE')
+        finally:
+            bpy.ops.object.mode_set(mode='OBJECT')
+            s.cancel()
+
+    def test_frame_stats_split(self):
+        s = api.start_session(self.obj, bpy.context.scene)
+        move(self.empty, dx=0.1)
+        st = s.step()
+        self.assertAlmostEqual(st.total_ms, st.read_ms + st.solve_ms + st.write_ms)
+        self.assertGreaterEqual(st.io_ms, 0.0)
+        self.assertLessEqual(st.iterations, self.obj.arap.live_iterations)
+        s.cancel()
+
+
+if __name__ == "__main__":
+    unittest.main()

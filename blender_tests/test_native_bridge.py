@@ -1,0 +1,82 @@
+# The native module: version/ABI checks at load, errors, array handling.
+import sys
+import unittest
+
+import numpy as np
+
+from arap_deform import engine
+
+
+class NativeBridge(unittest.TestCase):
+    def test_module_matches_addon(self):
+        mod = engine.native()
+        self.assertEqual(mod.__version__, engine.addon_version())
+        self.assertEqual(tuple(mod.PYTHON_VERSION), tuple(sys.version_info[:2]))
+        self.assertTrue(mod.PYTHON_ABI.startswith(sys.implementation.cache_tag), mod.PYTHON_ABI)
+
+    def test_version_mismatch_says_what_to_rebuild(self):
+        mod = engine.native()
+        saved = mod.__version__
+        try:
+            engine._native = None
+            mod.__version__ = "0.0.0-other"
+            with self.assertRaises(engine.NativeModuleError) as cm:
+                engine.native()
+            self.assertIn("0.0.0-other", str(cm.exception))
+            self.assertIn("Rebuild", str(cm.exception))
+        finally:
+            mod.__version__ = saved
+            engine._native = None
+        self.assertIs(engine.native(), mod)
+
+    def test_python_mismatch_says_what_to_rebuild(self):
+        mod = engine.native()
+        saved = mod.PYTHON_VERSION
+        try:
+            engine._native = None
+            mod.PYTHON_VERSION = (3, 99)
+            with self.assertRaises(engine.NativeModuleError) as cm:
+                engine.native()
+            self.assertIn("Python 3.99", str(cm.exception))
+            self.assertIn("ARAP_PYTHON_EXECUTABLE", str(cm.exception))
+        finally:
+            mod.PYTHON_VERSION = saved
+            engine._native = None
+        engine.native()
+
+    def _square(self):
+        rest = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float64)
+        tris = np.array([[0, 1, 2], [0, 2, 3]], np.int32)
+        return rest, tris
+
+    def test_arap_error_and_code(self):
+        mod = engine.native()
+        rest, tris = self._square()
+        s = mod.Solver()
+        with self.assertRaises(mod.ArapError) as cm:
+            s.bind(rest, tris, np.array([0, 0]))
+        self.assertTrue(cm.exception.code)
+        self.assertTrue(str(cm.exception))
+        self.assertIsNotNone(engine.user_error(cm.exception))
+
+    def test_float32_and_float64_in_and_out(self):
+        mod = engine.native()
+        rest, tris = self._square()
+        for dtype in (np.float32, np.float64):
+            s = mod.Solver()
+            s.bind(rest.astype(dtype), tris, np.array([0, 1]))
+            for out in (np.empty(12, np.float32), np.empty((4, 3), np.float64)):
+                s.solve(np.array([[0, 0, 0], [1, 0, 0.5]], dtype), out=out)
+                np.testing.assert_allclose(out.reshape(-1, 3), s.positions(), atol=1e-6)
+        with self.assertRaises(ValueError):
+            s.solve(np.zeros((2, 3)), out=np.empty(11, np.float32))
+        with self.assertRaises(TypeError):
+            s.solve(np.zeros((2, 3), np.int32))
+        with self.assertRaises(ValueError):
+            s.solve(np.zeros((3, 2)))
+        with self.assertRaises(ValueError):
+            s.solve(np.zeros((6, 3))[::2])
+
+
+if __name__ == "__main__":
+    unittest.main()

@@ -1,0 +1,56 @@
+# Enabling/disabling the add-on leaves nothing behind; operators are documented and in menus.
+import unittest
+
+import addon_utils
+import bpy
+
+OPS = ("add_handle_from_selection", "set_fixed_from_selection", "handle_add", "handle_remove", "deform",
+       "reset", "set_rest_pose", "live", "live_apply", "live_cancel")
+
+
+def arap_classes():
+    names = []
+    for base in (bpy.types.Operator, bpy.types.Panel, bpy.types.PropertyGroup, bpy.types.UIList, bpy.types.Menu):
+        names += [c.__name__ for c in base.__subclasses__() if c.__name__.startswith("ARAP_")
+                  and getattr(c, "is_registered", False)]
+    return names
+
+
+class Registration(unittest.TestCase):
+    def tearDown(self):
+        addon_utils.enable("arap_deform", default_set=True)
+
+    def test_enabled_state(self):
+        self.assertTrue(hasattr(bpy.types.Object, "arap"))
+        for op in OPS:
+            self.assertIn("arap_" + op, dir(bpy.ops.object))
+        self.assertTrue(hasattr(bpy.types, "ARAP_PT_main"))
+        self.assertTrue(hasattr(bpy.types, "ARAP_UL_handles"))
+        self.assertIn("ARAP_PG_settings", arap_classes())
+
+    def test_operators_documented_and_in_menus(self):
+        from arap_deform import operators
+        for cls in operators.classes:
+            self.assertTrue(cls.__doc__ and cls.__doc__.strip(), cls.__name__)
+            self.assertTrue(cls.bl_idname.startswith("object.arap_"), cls.bl_idname)
+        # F3 (menu search) finds operators that sit in a menu.
+        self.assertIn("_menu_entry", [f.__name__ for f in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()])
+
+    def test_disable_leaves_nothing(self):
+        addon_utils.disable("arap_deform", default_set=True)
+        self.assertFalse(hasattr(bpy.types.Object, "arap"))
+        self.assertEqual(arap_classes(), [])
+        for op in OPS:
+            self.assertNotIn("arap_" + op, dir(bpy.ops.object))
+        for name in ("ARAP_PT_main", "ARAP_UL_handles", "ARAP_MT_menu", "ARAP_PG_settings", "ARAP_PG_handle"):
+            self.assertFalse(hasattr(bpy.types, name), name)
+        self.assertNotIn("_menu_entry", [f.__name__ for f in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()])
+        self.assertNotIn("arap_deform", bpy.context.preferences.addons)
+
+    def test_reenable_twice(self):
+        for _ in range(2):
+            addon_utils.disable("arap_deform", default_set=True)
+            addon_utils.enable("arap_deform", default_set=True)
+        self.assertTrue(hasattr(bpy.types.Object, "arap"))
+        self.assertEqual(len([f for f in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()
+                              if f.__name__ == "_menu_entry"]), 1)

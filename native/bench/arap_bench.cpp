@@ -1,0 +1,499 @@
+// arap-bench: time and convergence of the ARAP solver on procedural meshes
+// and given mesh / scenario files, next to CGAL's Surface_mesh_deformation
+// when CGAL was found at configure time. Writes results.md and results.json
+// (rewritten after every mesh, so an interrupted run keeps what it measured).
+#include <malloc.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "arap/solver.h"
+#include "arap/version.h"
+#include "bench_cases.h"
+#ifdef ARAP_BENCH_HAVE_CGAL
+#include "cgal_arap.h"
+#endif
+
+namespace {
+
+using nlohmann::json;
+
+struct Args {
+  int min_vertices = 1000, max_vertices = 1000000;
+  std::vector<std::string> shapes = {"sphere", "bar"};
+  std::vector<std::string> files;
+  int iterations = 200;
+  std::vector<arap::Weights> weights = {arap::Weights::Cotan};
+  std::vector<int> threads = {1};
+  arap::InitialGuess init = arap::InitialGuess::Laplacian;
+  int anderson = 0;
+  bool cgal = true;
+  int cgal_max_vertices = 300000, cgal_iterations = 20;
+  std::string output_dir = "results";
+};
+
+const char* kUsage = R"(usage: arap-bench [options] [mesh.off|.obj|.ply|scenario.json ...]
+  --min-vertices N       smallest procedural mesh (default 1000)
+  --max-vertices N       largest procedural mesh (default 1000000); sizes double from the smallest
+  --shapes LIST          procedural shapes: sphere,bar (default both; "none" for files only)
+  --iterations N         iterations per solve (default 200; the reference energy is the last one)
+  --weights LIST         cotan,cotan-clamped,uniform (default cotan)
+  --threads LIST         thread counts, e.g. 1,2 (default 1); counts after the first time the first
+                         weight only, over 30 iterations (their energies equal the first count's)
+  --init NAME            first guess: laplacian (default, as CGAL's first iteration), naive, differential
+  --anderson M           also run with Anderson acceleration, window M (default 0: off)
+  --no-cgal              skip CGAL
+  --cgal-max-vertices N  largest mesh given to CGAL (default 300000)
+  --cgal-iterations N    CGAL iterations (default 20)
+  --output-dir DIR       where results.md and results.json go (default ./results)
+)";
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string item; std::getline(ss, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+Args parse_args(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string flag = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::runtime_error(flag + " needs a value");
+      return argv[++i];
+    };
+    if (flag == "--help" || flag == "-h") {
+      std::cout << kUsage;
+      std::exit(0);
+    } else if (flag == "--min-vertices") {
+      a.min_vertices = std::stoi(value());
+    } else if (flag == "--max-vertices") {
+      a.max_vertices = std::stoi(value());
+    } else if (flag == "--shapes") {
+      a.shapes = split(value());
+      if (a.shapes == std::vector<std::string>{"none"}) a.shapes.clear();
+    } else if (flag == "--iterations") {
+      a.iterations = std::max(1, std::stoi(value()));
+    } else if (flag == "--weights") {
+      a.weights.clear();
+      for (const auto& w : split(value())) a.weights.push_back(arap::parse_weights(w));
+    } else if (flag == "--threads") {
+      a.threads.clear();
+      for (const auto& t : split(value())) a.threads.push_back(std::max(1, std::stoi(t)));
+    } else if (flag == "--init") {
+      a.init = arap::parse_initial_guess(value());
+    } else if (flag == "--anderson") {
+      a.anderson = std::stoi(value());
+    } else if (flag == "--no-cgal") {
+      a.cgal = false;
+    } else if (flag == "--cgal-max-vertices") {
+      a.cgal_max_vertices = std::stoi(value());
+    } else if (flag == "--cgal-iterations") {
+      a.cgal_iterations = std::max(1, std::stoi(value()));
+    } else if (flag == "--output-dir") {
+      a.output_dir = value();
+    } else if (!flag.empty() && flag[0] == '-') {
+      throw std::runtime_error("unknown option " + flag + "\n" + kUsage);
+    } else {
+      a.files.push_back(flag);
+    }
+  }
+  if (a.weights.empty() || a.threads.empty()) throw std::runtime_error("--weights and --threads need values");
+  return a;
+}
+
+// ---- peak memory ------------------------------------------------------------
+// VmHWM (peak resident set) only grows during a process; Linux resets it to
+// the current RSS when "5" is written to /proc/self/clear_refs. Each
+// measurement returns freed memory to the system (malloc_trim), resets the
+// peak, and reports VmHWM - VmRSS at the start: the extra resident memory the
+// measured code needed at its peak.
+long status_kb(const char* field) {
+  std::ifstream in("/proc/self/status");
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind(field, 0) == 0) return std::atol(line.c_str() + std::string(field).size() + 1);
+  return -1;
+}
+
+struct PeakMemory {
+  long baseline_kb = 0;
+  bool reset = false;
+  void start() {
+    malloc_trim(0);
+    std::ofstream clear("/proc/self/clear_refs");
+    reset = static_cast<bool>(clear << "5" << std::flush);
+    baseline_kb = status_kb("VmRSS:");
+  }
+  // MiB above the start; without the reset, the process's peak so far minus the start.
+  double mib() const { return (status_kb("VmHWM:") - baseline_kb) / 1024.0; }
+};
+
+bool peak_reset_works() {
+  PeakMemory probe;
+  probe.start();
+  return probe.reset;
+}
+
+// ---- small statistics --------------------------------------------------------
+double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  const double pos = q * (v.size() - 1);
+  const size_t lo = static_cast<size_t>(pos);
+  const size_t hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + (pos - lo) * (v[hi] - v[lo]);
+}
+
+json spread(const std::vector<double>& ms) {
+  return {{"median", quantile(ms, 0.5)}, {"min", quantile(ms, 0)}, {"p25", quantile(ms, 0.25)},
+          {"p75", quantile(ms, 0.75)},   {"max", quantile(ms, 1)}};
+}
+
+// Energy after k iterations (1-based) or null when the run was shorter.
+json energy_after(const std::vector<double>& energy, int k) {
+  return k <= static_cast<int>(energy.size()) ? json(energy[k - 1]) : json(nullptr);
+}
+
+// The first k with energy[k-1] - reference <= 1e-3 |energy[0]|, or 0 if none.
+int iterations_to_reach(const std::vector<double>& energy, double reference, double first) {
+  for (size_t k = 0; k < energy.size(); ++k)
+    if (energy[k] - reference <= 1e-3 * std::abs(first)) return static_cast<int>(k) + 1;
+  return 0;
+}
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+// ---- one run of our solver ------------------------------------------------------
+// timing_only: a short run (kTimingIterations) for the extra thread counts,
+// whose energies are those of the full single-count run.
+constexpr int kTimingIterations = 30;
+
+json run_ours(const bench::Case& c, arap::Weights weights, int threads, int anderson, bool timing_only,
+              const Args& args) {
+  arap::Options options;
+  options.weights = weights;
+  options.init = args.init;
+  options.tolerance = 0;
+  options.threads = threads;
+  options.anderson_window = anderson;
+
+  PeakMemory memory;
+  memory.start();
+  arap::Solver solver;
+  const auto t = Clock::now();
+  solver.bind(c.rest, c.triangles, c.constrained, options);
+  const double bind_wall_ms = ms_since(t);
+  // Warm-up: the first guess and one local step, so that the measured solve
+  // does not pay for starting OpenMP's threads or first-touching its buffers.
+  solver.options().max_iterations = 0;
+  solver.solve(c.targets);
+  solver.options().max_iterations = timing_only ? std::min(args.iterations, kTimingIterations) : args.iterations;
+  const arap::SolveStats st = solver.solve(c.targets);
+  const double peak_mib = memory.mib();
+
+  const int n = st.iterations;
+  // cumulative time at which each energy was reached, from the start of solve()
+  const double first_local_ms = st.rotation_ms / (n + 1);
+  std::vector<double> elapsed;
+  double clock = st.init_ms + first_local_ms;
+  for (double ms : st.iteration_ms) elapsed.push_back(clock += ms);
+
+  const double reference = timing_only ? NAN : st.energy.back();
+  const int k = timing_only ? 0 : iterations_to_reach(st.energy, reference, st.energy.front());
+  json r = {{"weights", arap::to_string(weights)},
+            {"threads", threads},
+            {"anderson", anderson},
+            {"init", arap::to_string(args.init)},
+            {"bind_ms", solver.bind_ms()},
+            {"bind_wall_ms", bind_wall_ms},
+            {"factor_nonzeros", solver.factor_nonzeros()},
+            {"init_ms", st.init_ms},
+            {"first_local_ms", first_local_ms},
+            {"iterations", n},
+            {"iteration_ms", spread(st.iteration_ms)},
+            {"rotation_ms_per_iteration", st.rotation_ms / (n + 1)},
+            {"rhs_ms_per_iteration", st.rhs_ms / n},
+            {"solve_ms_per_iteration", st.linear_solve_ms / n},
+            {"peak_mib", peak_mib},
+            {"peak_mib_reset", memory.reset},
+            {"initial_energy", st.initial_energy},
+            {"energy_after", {{"1", energy_after(st.energy, 1)},
+                              {"5", energy_after(st.energy, 5)},
+                              {"20", energy_after(st.energy, 20)},
+                              {"100", energy_after(st.energy, 100)}}},
+            {"timing_only", timing_only},
+            {"reference_energy", timing_only ? json(nullptr) : json(reference)},
+            {"reference_iterations", n},
+            {"iterations_to_1e-3", k},
+            {"ms_to_1e-3", k ? json(elapsed[k - 1]) : json(nullptr)},
+            {"anderson_rejections", st.anderson_rejections},
+            {"energy", st.energy},
+            {"elapsed_ms", elapsed},
+            {"iteration_ms_all", st.iteration_ms}};
+  return r;
+}
+
+#ifdef ARAP_BENCH_HAVE_CGAL
+// CGAL on the same problem; its energies are evaluated with our energy and
+// cotan-clamped weights (CGAL's weights), outside the timed calls.
+json run_cgal(const bench::Case& c, const Args& args, double reference_clamped) {
+  arap::Options options;
+  options.weights = arap::Weights::CotanClamped;
+  arap::Solver evaluator;
+  evaluator.bind(c.rest, c.triangles, c.constrained, options);
+
+  std::vector<double> energy;
+  PeakMemory memory;
+  memory.start();
+  const bench::CgalResult res =
+      bench::run_cgal_arap(c.rest, c.triangles, c.constrained, c.targets, args.cgal_iterations,
+                           [&](const arap::Points& p) { energy.push_back(evaluator.energy(p)); });
+  const double peak_mib = memory.mib();  // includes the few MiB of the energy evaluation
+  if (!res.ok) return {{"error", res.error}};
+
+  std::vector<double> elapsed;
+  double clock = 0;
+  for (double ms : res.iteration_ms) elapsed.push_back(clock += ms);
+  json r = {{"build_ms", res.build_ms},
+            {"preprocess_ms", res.preprocess_ms},
+            {"iterations", res.iteration_ms.size()},
+            {"iteration_ms", spread(res.iteration_ms)},
+            {"peak_mib", peak_mib},
+            {"energy_after", {{"1", energy_after(energy, 1)}, {"5", energy_after(energy, 5)},
+                              {"20", energy_after(energy, 20)}, {"100", energy_after(energy, 100)}}},
+            {"energy", energy},
+            {"elapsed_ms", elapsed},
+            {"iteration_ms_all", res.iteration_ms}};
+  if (std::isfinite(reference_clamped) && !energy.empty()) {
+    const int k = iterations_to_reach(energy, reference_clamped, energy.front());
+    r["iterations_to_1e-3"] = k;
+    r["ms_to_1e-3"] = k ? json(elapsed[k - 1]) : json(nullptr);
+  }
+  return r;
+}
+#endif
+
+// ---- output ----------------------------------------------------------------------
+std::string fmt(const json& v, const char* spec = "%.3g") {
+  if (v.is_null()) return "–";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, spec, v.get<double>());
+  return buf;
+}
+
+// "61 / 9 / 30": shares of the mean iteration spent in the local step, the
+// right-hand side and the triangular solves.
+std::string split_percent(const json& run) {
+  const double rot = run["rotation_ms_per_iteration"], rhs = run["rhs_ms_per_iteration"],
+               solve = run["solve_ms_per_iteration"], total = rot + rhs + solve;
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.0f / %.0f / %.0f", 100 * rot / total, 100 * rhs / total, 100 * solve / total);
+  return buf;
+}
+
+std::string cpu_model() {
+  std::ifstream in("/proc/cpuinfo");
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
+  return "unknown";
+}
+
+void write_results(const json& doc, const std::filesystem::path& dir) {
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "results.json") << doc.dump(1) << "\n";
+
+  std::ofstream md(dir / "results.md");
+  const json& set = doc["settings"];
+  md << "# ARAP benchmark\n\n"
+     << "arap " << doc["arap_version"].get<std::string>() << ", " << doc["machine"]["cpu"].get<std::string>()
+     << ", " << doc["machine"]["compiler"].get<std::string>() << ", " << doc["date"].get<std::string>() << ".\n\n"
+     << "- Scenario of procedural meshes and plain mesh files: bottom fifth (by the longest bounding-box axis) "
+        "fixed, top 5 % moved sideways by 0.3 h. Scenario files: their own constraints.\n"
+     << "- Ours: first guess `" << set["init"].get<std::string>() << "`, " << set["iterations"].get<int>()
+     << " iterations per solve after a warm-up solve (first guess only); the energy after the last iteration is the "
+        "reference E_ref. Thread counts after the first time the first weights over 30 iterations.\n"
+     << "- Times in ms. iteration: median [min–max] over all iterations; rot / rhs / solve: shares of the mean "
+        "iteration in the local step (with its energy), the right-hand side and the triangular solves (per-step "
+        "means in results.json).\n"
+     << "- peak MiB: extra resident memory at the peak of bind + solve, i.e. VmHWM minus VmRSS before, the peak "
+        "being reset through /proc/self/clear_refs (\"5\") before each measurement"
+     << (doc["peak_reset_works"].get<bool>() ? "" : " — NOT available here, so the peak is the process's so far")
+     << ". CGAL MiB: the same for building its Surface_mesh and deforming.\n"
+     << "- CGAL: Surface_mesh_deformation with ORIGINAL_ARAP and its defaults (cotangent weights with negative "
+        "cotangents clamped to 0, i.e. our cotan-clamped; SparseLU with COLAMD); whole mesh as ROI, every "
+        "constrained vertex a control vertex (fixed ones target their rest position). prep = ROI/control "
+        "insertion + weights + factorization; iteration = one deform(1, 0) call, "
+     << set["cgal_iterations"].get<int>() << " of them, on meshes up to " << set["cgal_max_vertices"].get<int>()
+     << " vertices. Its k-th iteration does the work of our first guess plus k-1 iterations.\n\n";
+
+  md << "## Time\n\n"
+     << "| mesh | V | weights | thr | bind | guess | iteration | rot / rhs / solve % | peak MiB | CGAL prep | "
+        "CGAL iteration | CGAL MiB | ours/CGAL iter | ours/CGAL bind |\n"
+     << "|---|---:|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|\n";
+  for (const json& m : doc["meshes"]) {
+    const json& cg = m["cgal"];
+    const bool has_cgal = cg.is_object() && cg.contains("iteration_ms");
+    for (const json& r : m["runs"]) {
+      const json& it = r["iteration_ms"];
+      md << "| " << m["name"].get<std::string>() << " | " << m["vertices"].get<long>() << " | "
+         << r["weights"].get<std::string>() << (r["anderson"].get<int>() ? " +AA" + std::to_string(r["anderson"].get<int>()) : "")
+         << " | " << r["threads"].get<int>() << " | " << fmt(r["bind_ms"]) << " | " << fmt(r["init_ms"]) << " | "
+         << fmt(it["median"]) << " [" << fmt(it["min"]) << "–" << fmt(it["max"]) << "] | " << split_percent(r)
+         << " | " << fmt(r["peak_mib"]) << " | ";
+      if (has_cgal) {
+        const json& ci = cg["iteration_ms"];
+        md << fmt(cg["preprocess_ms"]) << " | " << fmt(ci["median"]) << " [" << fmt(ci["min"]) << "–"
+           << fmt(ci["max"]) << "] | " << fmt(cg["peak_mib"]) << " | "
+           << fmt(it["median"].get<double>() / ci["median"].get<double>(), "%.2f") << " | "
+           << fmt(r["bind_ms"].get<double>() / cg["preprocess_ms"].get<double>(), "%.2f") << " |\n";
+      } else {
+        md << (cg.is_object() && cg.contains("error") ? "error: " + cg["error"].get<std::string>() : "–")
+           << " | – | – | – | – |\n";
+      }
+    }
+  }
+
+  md << "\n## Convergence\n\n"
+     << "Energy E (Sorkine & Alexa, optimal rotations, the row's weights) after k iterations; E_ref = after the "
+        "last iteration. \"to 1e-3\": iterations and ms from the start of solve() until E - E_ref <= 1e-3 |E_1|. "
+        "CGAL energies are computed with our energy and cotan-clamped weights, so compare them with the "
+        "cotan-clamped rows (CGAL after k iterations ~ ours after k-1).\n\n"
+     << "| mesh | V | weights | thr | E guess | E1 | E5 | E20 | E100 | E_ref | to 1e-3 (it) | to 1e-3 (ms) | "
+        "CGAL E1 | CGAL E5 | CGAL E20 | CGAL to 1e-3 (it / ms) |\n"
+     << "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const json& m : doc["meshes"]) {
+    const json& cg = m["cgal"];
+    for (const json& r : m["runs"]) {
+      const json& e = r["energy_after"];
+      if (r["timing_only"].get<bool>()) continue;
+      md << "| " << m["name"].get<std::string>() << " | " << m["vertices"].get<long>() << " | "
+         << r["weights"].get<std::string>() << (r["anderson"].get<int>() ? " +AA" + std::to_string(r["anderson"].get<int>()) : "")
+         << " | " << r["threads"].get<int>() << " | " << fmt(r["initial_energy"], "%.6g") << " | "
+         << fmt(e["1"], "%.6g") << " | " << fmt(e["5"], "%.6g") << " | " << fmt(e["20"], "%.6g") << " | "
+         << fmt(e["100"], "%.6g") << " | " << fmt(r["reference_energy"], "%.6g") << " | "
+         << (r["iterations_to_1e-3"].get<int>() ? std::to_string(r["iterations_to_1e-3"].get<int>()) : "–")
+         << " | " << fmt(r["ms_to_1e-3"]) << " | ";
+      const bool comparable = cg.is_object() && cg.contains("energy_after") && r["weights"] == "cotan-clamped";
+      if (comparable) {
+        const json& ce = cg["energy_after"];
+        const int k = cg.value("iterations_to_1e-3", 0);
+        md << fmt(ce["1"], "%.6g") << " | " << fmt(ce["5"], "%.6g") << " | " << fmt(ce["20"], "%.6g") << " | "
+           << (k ? std::to_string(k) + " / " + fmt(cg["ms_to_1e-3"]) : "> " + std::to_string(cg["iterations"].get<int>()))
+           << " |\n";
+      } else {
+        md << "– | – | – | – |\n";
+      }
+    }
+  }
+}
+
+std::string now_utc() {
+  const std::time_t t = std::time(nullptr);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%d %H:%M UTC", std::gmtime(&t));
+  return buf;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    const Args args = parse_args(argc, argv);
+
+    // What to measure: procedural sizes first, then the files, in the order given.
+    std::vector<std::pair<std::string, int>> procedural;
+    for (const auto& shape : args.shapes)
+      for (long target = args.min_vertices;; target *= 2) {
+        procedural.emplace_back(shape, static_cast<int>(std::min<long>(target, args.max_vertices)));
+        if (target >= args.max_vertices) break;
+      }
+    std::sort(procedural.begin(), procedural.end(),
+              [](const auto& a, const auto& b) { return std::tie(a.second, a.first) < std::tie(b.second, b.first); });
+
+    json doc = {{"arap_version", arap::version()},
+                {"date", now_utc()},
+                {"machine", {{"cpu", cpu_model()}, {"compiler", "gcc " __VERSION__}}},
+                {"settings",
+                 {{"iterations", args.iterations},
+                  {"init", arap::to_string(args.init)},
+                  {"threads", args.threads},
+                  {"cgal_max_vertices", args.cgal_max_vertices},
+                  {"cgal_iterations", args.cgal_iterations}}},
+                {"peak_reset_works", peak_reset_works()},
+#ifdef ARAP_BENCH_HAVE_CGAL
+                {"cgal_available", true},
+#else
+                {"cgal_available", false},
+#endif
+                {"meshes", json::array()}};
+
+    const size_t total = procedural.size() + args.files.size();
+    for (size_t index = 0; index < total; ++index) {
+      bench::Case c = index < procedural.size() ? bench::procedural_case(procedural[index].first, procedural[index].second)
+                                                : bench::file_case(args.files[index - procedural.size()]);
+      std::cerr << "[" << index + 1 << "/" << total << "] " << c.name << ": " << c.rest.rows() << " vertices, "
+                << c.constrained.size() << " constrained" << std::endl;
+      json m = {{"name", c.name},
+                {"source", c.source},
+                {"vertices", c.rest.rows()},
+                {"triangles", c.triangles.rows()},
+                {"fixed", c.fixed_count},
+                {"handles", static_cast<long>(c.constrained.size()) - c.fixed_count},
+                {"runs", json::array()},
+                {"cgal", nullptr}};
+
+      double reference_clamped = NAN;
+      // Every weight (and Anderson) at the first thread count; the other
+      // thread counts time the first weight only.
+      for (int threads : args.threads)
+        for (arap::Weights w : args.weights) {
+          const bool main_count = threads == args.threads.front();
+          if (!main_count && w != args.weights.front()) continue;
+          std::vector<int> windows = {0};
+          if (args.anderson > 0 && main_count) windows.push_back(args.anderson);
+          for (int anderson : windows) {
+            json r = run_ours(c, w, threads, anderson, !main_count, args);
+            std::cerr << "  ours " << r["weights"].get<std::string>() << (anderson ? " +AA" : "") << " x" << threads
+                      << ": bind " << fmt(r["bind_ms"]) << " ms, iteration " << fmt(r["iteration_ms"]["median"])
+                      << " ms, E_ref " << fmt(r["reference_energy"], "%.6g") << std::endl;
+            if (w == arap::Weights::CotanClamped && !anderson) reference_clamped = r["reference_energy"].get<double>();
+            m["runs"].push_back(std::move(r));
+          }
+        }
+
+#ifdef ARAP_BENCH_HAVE_CGAL
+      if (args.cgal && c.rest.rows() <= args.cgal_max_vertices) {
+        m["cgal"] = run_cgal(c, args, reference_clamped);
+        if (m["cgal"].contains("error"))
+          std::cerr << "  CGAL: " << m["cgal"]["error"].get<std::string>() << std::endl;
+        else
+          std::cerr << "  CGAL: preprocess " << fmt(m["cgal"]["preprocess_ms"]) << " ms, iteration "
+                    << fmt(m["cgal"]["iteration_ms"]["median"]) << " ms" << std::endl;
+      }
+#endif
+      doc["meshes"].push_back(std::move(m));
+      write_results(doc, args.output_dir);
+    }
+    std::cerr << "wrote " << (std::filesystem::path(args.output_dir) / "results.md").string() << " and results.json"
+              << std::endl;
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "arap-bench: " << e.what() << std::endl;
+    return 1;
+  }
+}

@@ -1,0 +1,40 @@
+# ctest bench_smoke: arap-bench on tiny procedural meshes and on a 12-vertex
+# box given both as an OFF file and as a scenario JSON; checks the exit code
+# and that results.md / results.json hold a row for every mesh.
+file(REMOVE_RECURSE ${WORK})
+file(MAKE_DIRECTORY ${WORK})
+# 1 x 1 x 2 box with a middle ring: 12 vertices, 20 outward triangles.
+file(WRITE ${WORK}/box.off "OFF\n12 20 0\n"
+  "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n0 0 2\n1 0 2\n1 1 2\n0 1 2\n"
+  "3 0 2 1\n3 0 3 2\n3 8 9 10\n3 8 10 11\n")
+foreach(ring 0 4)
+  foreach(side 0 1 2 3)
+    math(EXPR a "${ring} + ${side}")
+    math(EXPR b "${ring} + (${side} + 1) % 4")
+    math(EXPR c "${b} + 4")
+    math(EXPR d "${a} + 4")
+    file(APPEND ${WORK}/box.off "3 ${a} ${b} ${c}\n3 ${a} ${c} ${d}\n")
+  endforeach()
+endforeach()
+file(WRITE ${WORK}/box.json
+  "{\"name\": \"box-scenario\", \"mesh\": \"box.off\", \"fixed\": [0, 1, 2, 3],"
+  " \"handles\": [{\"vertices\": [8, 9, 10, 11], \"translate\": [0.5, 0, 0]}]}\n")
+
+execute_process(
+  COMMAND ${BENCH} --min-vertices 300 --max-vertices 600 --iterations 6 --weights cotan,cotan-clamped
+          --threads 1,2 --anderson 3 --cgal-iterations 3 --output-dir ${WORK}/results ${WORK}/box.off ${WORK}/box.json
+  RESULT_VARIABLE status)
+if(NOT status EQUAL 0)
+  message(FATAL_ERROR "arap-bench exited with ${status}")
+endif()
+file(READ ${WORK}/results/results.md table)
+foreach(name "sphere-[0-9]+" "bar-[0-9]+" box box-scenario)
+  if(NOT table MATCHES "\\| ${name} \\| [0-9]+ \\| cotan")
+    message(FATAL_ERROR "results.md has no row for ${name}:\n${table}")
+  endif()
+endforeach()
+file(READ ${WORK}/results/results.json doc)
+string(JSON meshes LENGTH "${doc}" meshes)
+if(NOT meshes EQUAL 6)
+  message(FATAL_ERROR "results.json lists ${meshes} meshes, expected 6")
+endif()

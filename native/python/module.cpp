@@ -1,0 +1,305 @@
+// _arap_native: the thin pybind11 layer over arap::Solver.
+//
+// It only converts data, releases the GIL around native work and maps
+// arap::Error to the Python exception ArapError. No math lives here.
+//
+// Arrays: positions are (n, 3) or flat (3n,) C-contiguous float64 (mapped
+// without a copy) or float32 (converted to double once). Results are written
+// into a buffer the caller owns (float32 or float64, (n, 3) or flat).
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <pybind11/numpy.h>
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "arap/errors.h"
+#include "arap/options.h"
+#include "arap/solver.h"
+#include "arap/version.h"
+
+namespace py = pybind11;
+
+namespace {
+
+using RowPoints = arap::Points;
+using MapPoints = Eigen::Map<const RowPoints>;
+
+// A read-only (rows x 3) view of a numpy array: mapped in place when it is
+// C-contiguous float64, otherwise converted once into `storage`.
+struct PointsView {
+  RowPoints storage;
+  const double* data = nullptr;
+  Eigen::Index rows = 0;
+  MapPoints map() const { return MapPoints(data, rows, 3); }
+};
+
+Eigen::Index rows_of_xyz(const py::array& a, const char* what) {
+  if (a.ndim() == 2 && a.shape(1) == 3) return a.shape(0);
+  if (a.ndim() == 1 && a.shape(0) % 3 == 0) return a.shape(0) / 3;
+  std::string shape;
+  for (py::ssize_t i = 0; i < a.ndim(); ++i) shape += (i ? ", " : "") + std::to_string(a.shape(i));
+  throw py::value_error(std::string(what) + ": expected an (n, 3) or flat (3n,) array, got shape (" + shape + ")");
+}
+
+void require_c_contiguous(const py::array& a, const char* what) {
+  if (!(a.flags() & py::array::c_style))
+    throw py::value_error(std::string(what) + ": the array must be C-contiguous (use numpy.ascontiguousarray)");
+}
+
+PointsView view_points(const py::array& a, const char* what) {
+  PointsView v;
+  v.rows = rows_of_xyz(a, what);
+  require_c_contiguous(a, what);
+  if (py::isinstance<py::array_t<double>>(a)) {
+    v.data = static_cast<const double*>(a.data());
+  } else if (py::isinstance<py::array_t<float>>(a)) {
+    v.storage = Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor>>(
+                    static_cast<const float*>(a.data()), v.rows, 3)
+                    .cast<double>();
+    v.data = v.storage.data();
+  } else {
+    throw py::type_error(std::string(what) + ": expected a float32 or float64 array, got dtype " +
+                         std::string(py::str(a.dtype())));
+  }
+  return v;
+}
+
+// Copies `src` (#V by 3) into the caller's buffer `out` (float32/float64,
+// (n, 3) or flat, C-contiguous, writeable). Checks happen with the GIL held;
+// the copy itself may run without it.
+struct OutBuffer {
+  void* data = nullptr;
+  bool is_double = true;
+};
+
+OutBuffer check_out(py::array& out, Eigen::Index rows, const char* what) {
+  if (rows_of_xyz(out, what) != rows)
+    throw py::value_error(std::string(what) + ": has " + std::to_string(rows_of_xyz(out, what)) +
+                          " rows, the mesh has " + std::to_string(rows) + " vertices");
+  require_c_contiguous(out, what);
+  if (!out.writeable()) throw py::value_error(std::string(what) + ": the array is read-only");
+  OutBuffer b;
+  if (py::isinstance<py::array_t<double>>(out)) {
+    b.is_double = true;
+  } else if (py::isinstance<py::array_t<float>>(out)) {
+    b.is_double = false;
+  } else {
+    throw py::type_error(std::string(what) + ": expected a float32 or float64 array, got dtype " +
+                         std::string(py::str(out.dtype())));
+  }
+  b.data = out.mutable_data();
+  return b;
+}
+
+void copy_out(const RowPoints& src, const OutBuffer& b) {
+  const Eigen::Index n = src.size();
+  if (b.is_double) {
+    std::memcpy(b.data, src.data(), sizeof(double) * static_cast<size_t>(n));
+  } else {
+    float* dst = static_cast<float*>(b.data);
+    const double* s = src.data();
+    for (Eigen::Index i = 0; i < n; ++i) dst[i] = static_cast<float>(s[i]);
+  }
+}
+
+arap::Triangles to_triangles(const py::array& a) {
+  const Eigen::Index rows = rows_of_xyz(a, "triangles");
+  // int32 and int64 (numpy's default) are both accepted; the copy is small
+  // next to the factorization that follows.
+  py::array_t<int64_t, py::array::c_style | py::array::forcecast> t(a);
+  arap::Triangles tri(rows, 3);
+  const int64_t* s = t.data();
+  for (Eigen::Index i = 0; i < rows * 3; ++i) {
+    if (s[i] < 0 || s[i] > INT32_MAX)
+      throw py::value_error("triangles: index " + std::to_string(s[i]) + " is negative or too large");
+    tri.data()[i] = static_cast<int>(s[i]);
+  }
+  return tri;
+}
+
+std::vector<int> to_indices(const py::array& a) {
+  py::array_t<int64_t, py::array::c_style | py::array::forcecast> t(a);
+  if (t.ndim() != 1) throw py::value_error("constrained: expected a 1-D array of vertex indices");
+  std::vector<int> out(static_cast<size_t>(t.shape(0)));
+  for (size_t i = 0; i < out.size(); ++i) {
+    const int64_t v = t.data()[i];
+    if (v < 0 || v > INT32_MAX)
+      throw py::value_error("constrained: index " + std::to_string(v) + " is negative or too large");
+    out[i] = static_cast<int>(v);
+  }
+  return out;
+}
+
+py::dict report_dict(const arap::MeshReport& r) {
+  py::dict d;
+  d["vertices"] = r.vertices;
+  d["triangles"] = r.triangles;
+  d["degenerate_triangles"] = r.degenerate_triangles;
+  d["isolated_vertices"] = r.isolated_vertices;
+  d["components"] = r.components;
+  d["unconstrained_components"] = r.unconstrained_components;
+  d["unconstrained_vertices"] = r.unconstrained_vertices;
+  d["nonmanifold_edges"] = r.nonmanifold_edges;
+  return d;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_arap_native, m) {
+  m.doc() = "Thin bindings of the ARAP solver (arap::Solver) for the Blender add-on.";
+  m.attr("__version__") = ARAP_MODULE_VERSION;
+  m.attr("LIBRARY_VERSION") = arap::version();
+  // SOABI of the Python this module was compiled for, e.g. "cpython-311-x86_64-linux-gnu".
+  m.attr("PYTHON_ABI") = ARAP_PYTHON_ABI;
+  m.attr("PYTHON_VERSION") = py::make_tuple(PY_MAJOR_VERSION, PY_MINOR_VERSION);
+
+  // ArapError(message).code is the arap::ErrorCode name ("NonFinite", ...).
+  static py::exception<arap::Error> arap_error(m, "ArapError", PyExc_RuntimeError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const arap::Error& e) {
+      py::object exc = py::handle(arap_error.ptr())(e.what());
+      exc.attr("code") = arap::error_code_name(e.code());
+      PyErr_SetObject(arap_error.ptr(), exc.ptr());
+    }
+  });
+
+  py::class_<arap::SolveStats>(m, "SolveStats", "Statistics of one solve() call (times in milliseconds).")
+      .def_readonly("initial_energy", &arap::SolveStats::initial_energy)
+      .def_readonly("energy", &arap::SolveStats::energy, "energy after each iteration")
+      .def_readonly("iteration_ms", &arap::SolveStats::iteration_ms)
+      .def_readonly("init_ms", &arap::SolveStats::init_ms)
+      .def_readonly("rotation_ms", &arap::SolveStats::rotation_ms)
+      .def_readonly("rhs_ms", &arap::SolveStats::rhs_ms)
+      .def_readonly("linear_solve_ms", &arap::SolveStats::linear_solve_ms)
+      .def_readonly("iterations", &arap::SolveStats::iterations)
+      .def_readonly("converged", &arap::SolveStats::converged)
+      .def_readonly("rotation_fallbacks", &arap::SolveStats::rotation_fallbacks)
+      .def_readonly("anderson_rejections", &arap::SolveStats::anderson_rejections)
+      .def("__repr__", [](const arap::SolveStats& s) {
+        return "<SolveStats iterations=" + std::to_string(s.iterations) +
+               " energy=" + (s.energy.empty() ? std::to_string(s.initial_energy) : std::to_string(s.energy.back())) +
+               (s.converged ? " converged>" : ">");
+      });
+
+  py::class_<arap::Solver>(m, "Solver", "Bind once per mesh and constraint set, then solve many times.")
+      .def(py::init<>())
+      .def(
+          "bind",
+          [](arap::Solver& s, const py::array& rest, const py::array& triangles, const py::array& constrained,
+             const std::string& weights, const std::string& init, int max_iterations, double tolerance, int threads,
+             int anderson_window) {
+            PointsView r = view_points(rest, "rest");
+            arap::Triangles tri = to_triangles(triangles);
+            std::vector<int> con = to_indices(constrained);
+            arap::Options o;
+            o.weights = arap::parse_weights(weights);
+            o.init = arap::parse_initial_guess(init);
+            o.max_iterations = max_iterations;
+            o.tolerance = tolerance;
+            o.threads = threads;
+            o.anderson_window = anderson_window;
+            py::gil_scoped_release release;
+            s.bind(r.map(), tri, con, o);
+          },
+          py::arg("rest"), py::arg("triangles"), py::arg("constrained"), py::arg("weights") = "cotan-clamped",
+          py::arg("init") = "laplacian", py::arg("max_iterations") = 10, py::arg("tolerance") = 1e-6,
+          py::arg("threads") = 1, py::arg("anderson_window") = 0,
+          "rest: #V by 3 positions; triangles: #F by 3 indices; constrained: vertex indices (no duplicates).")
+      .def(
+          "solve",
+          [](arap::Solver& s, const py::array& targets, py::object out) {
+            PointsView t = view_points(targets, "targets");
+            OutBuffer b;
+            py::array out_arr;
+            const bool has_out = !out.is_none();
+            if (has_out) {
+              out_arr = py::array::ensure(out);
+              if (!out_arr) throw py::type_error("out: expected a numpy array");
+              b = check_out(out_arr, s.vertex_count(), "out");
+            }
+            py::gil_scoped_release release;
+            arap::SolveStats st = s.solve(t.map());
+            if (has_out) copy_out(s.positions(), b);
+            return st;
+          },
+          py::arg("targets"), py::arg("out") = py::none(),
+          "targets: #constrained by 3 in bind order. Writes the result into `out` when given.")
+      .def(
+          "positions",
+          [](const arap::Solver& s, py::object out) -> py::object {
+            if (out.is_none()) {
+              py::array_t<double> a({static_cast<py::ssize_t>(s.positions().rows()), py::ssize_t(3)});
+              std::memcpy(a.mutable_data(), s.positions().data(), sizeof(double) * s.positions().size());
+              return std::move(a);
+            }
+            py::array out_arr = py::array::ensure(out);
+            if (!out_arr) throw py::type_error("out: expected a numpy array");
+            OutBuffer b = check_out(out_arr, s.positions().rows(), "out");
+            {
+              py::gil_scoped_release release;
+              copy_out(s.positions(), b);
+            }
+            return out;
+          },
+          py::arg("out") = py::none(), "The current solution (also the warm-start state).")
+      .def(
+          "set_positions",
+          [](arap::Solver& s, const py::array& p) {
+            PointsView v = view_points(p, "positions");
+            s.set_positions(v.map());
+          },
+          py::arg("positions"))
+      .def(
+          "energy",
+          [](const arap::Solver& s, const py::array& p) {
+            PointsView v = view_points(p, "positions");
+            py::gil_scoped_release release;
+            return s.energy(v.map());
+          },
+          py::arg("positions"))
+      .def(
+          "energy_gradient",
+          [](const arap::Solver& s, const py::array& p) {
+            PointsView v = view_points(p, "positions");
+            RowPoints g;
+            {
+              py::gil_scoped_release release;
+              g = s.energy_gradient(v.map());
+            }
+            py::array_t<double> a({static_cast<py::ssize_t>(g.rows()), py::ssize_t(3)});
+            std::memcpy(a.mutable_data(), g.data(), sizeof(double) * g.size());
+            return a;
+          },
+          py::arg("positions"), "dE/dp for every vertex, #V by 3 float64.")
+      .def("mesh_report", [](const arap::Solver& s) { return report_dict(s.mesh_report()); })
+      .def_property_readonly("is_bound", &arap::Solver::is_bound)
+      .def_property_readonly("vertex_count", &arap::Solver::vertex_count)
+      .def_property_readonly("bind_ms", &arap::Solver::bind_ms)
+      .def_property_readonly("factor_nonzeros", &arap::Solver::factor_nonzeros)
+      .def_property_readonly("constrained", &arap::Solver::constrained)
+      // Options that need no re-bind.
+      .def_property(
+          "max_iterations", [](const arap::Solver& s) { return s.options().max_iterations; },
+          [](arap::Solver& s, int v) { s.options().max_iterations = v; })
+      .def_property(
+          "tolerance", [](const arap::Solver& s) { return s.options().tolerance; },
+          [](arap::Solver& s, double v) { s.options().tolerance = v; })
+      .def_property(
+          "threads", [](const arap::Solver& s) { return s.options().threads; },
+          [](arap::Solver& s, int v) { s.options().threads = v; })
+      .def_property(
+          "anderson_window", [](const arap::Solver& s) { return s.options().anderson_window; },
+          [](arap::Solver& s, int v) { s.options().anderson_window = v; })
+      .def_property(
+          "init", [](const arap::Solver& s) { return arap::to_string(s.options().init); },
+          [](arap::Solver& s, const std::string& v) { s.options().init = arap::parse_initial_guess(v); },
+          "laplacian | differential | naive | warm")
+      .def_property(
+          "cold_start", [](const arap::Solver& s) { return arap::to_string(s.options().cold_start); },
+          [](arap::Solver& s, const std::string& v) { s.options().cold_start = arap::parse_initial_guess(v); })
+      .def_property_readonly("weights", [](const arap::Solver& s) { return arap::to_string(s.options().weights); });
+}
