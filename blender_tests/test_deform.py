@@ -19,7 +19,7 @@ class Deform(unittest.TestCase):
     def setUp(self):
         U.clear_scene()
 
-    def native_reference(self, obj, fixed, handle, empty_bind, empty_now, iterations, init="laplacian",
+    def native_reference(self, obj, fixed, handle, empty_bind, empty_now, iterations, init="naive",
                          tolerance=0.0):
         """Bind and solve with the native module directly, targets computed here."""
         rest = U.coords(obj)
@@ -29,7 +29,7 @@ class Deform(unittest.TestCase):
         targets = np.concatenate([rest[fixed], U.apply(a, rest[handle])])
         s = engine.native().Solver()
         s.bind(rest, U.triangles(obj), constrained, weights="cotan-clamped", init=init,
-               max_iterations=iterations, tolerance=tolerance)
+               max_iterations=iterations, tolerance=tolerance, anderson_window=obj.arap.acceleration)
         s.solve(targets)
         return s, rest, constrained, targets
 

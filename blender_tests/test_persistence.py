@@ -19,7 +19,7 @@ class Persistence(unittest.TestCase):
         s.live_iterations = 3
         s.tolerance = 1e-4
         s.weights = 'UNIFORM'
-        s.init = 'NAIVE'
+        s.init = 'DIFFERENTIAL'
         s.output = 'MESH'
         bind = [float(v) for v in s.handles[0].bind_matrix]
         empty.matrix_world = Matrix.Translation((0.4, 0.0, 2.3))
@@ -30,7 +30,7 @@ class Persistence(unittest.TestCase):
         obj = bpy.data.objects["Bar"]
         s = obj.arap
         self.assertEqual((s.fixed_group, s.iterations, s.live_iterations, s.weights, s.init, s.output),
-                         ("bottom", 17, 3, 'UNIFORM', 'NAIVE', 'MESH'))
+                         ("bottom", 17, 3, 'UNIFORM', 'DIFFERENTIAL', 'MESH'))
         self.assertAlmostEqual(s.tolerance, 1e-4)
         self.assertEqual(len(s.handles), 1)
         h = s.handles[0]

@@ -47,11 +47,11 @@ PROP_BASIS = "arap_bake_basis"          # the Basis key was created by the bake
 PROP_ACTION = "arap_bake_action"        # the shape-key action was created by the bake
 PROP_MUTED = "arap_bake_muted_live"     # the "ARAP" key was muted by the bake
 
-DEFAULT_ITERATIONS = 500     # per frame, an upper bound: frames stop on the tolerance
-DEFAULT_TOLERANCE = 1e-9     # relative energy change that counts as converged
+DEFAULT_ITERATIONS = 2000    # per frame, an upper bound: frames stop on the tolerance
+DEFAULT_TOLERANCE = 1e-12    # relative energy change that counts as converged (see bake_shape_keys)
 DEFAULT_ANDERSON = 5         # Anderson window (energy-safeguarded, see solver.cpp)
 
-__all__ = ("BakeResult", "Baker", "bake_shape_keys", "bake_pc2", "clear_bake", "write_pc2", "read_pc2",
+__all__ = ("BakeResult", "Baker", "bake_shape_keys", "bake_pc2", "clear_bake", "PC2Writer", "read_pc2",
            "key_name", "is_baked")
 
 
@@ -87,7 +87,7 @@ class BakeResult:
         self.total_ms = 0.0
         self.output = None      # 'SHAPE_KEYS' | 'PC2'
         self.path = None
-        self.positions = None   # float32 (frames, n, 3), object-local
+        self.positions = None   # float32 (frames, n, 3), object-local (shape keys; PC2: read_pc2(path))
 
     def as_dict(self):
         return {"frames": self.frames, "energies": self.energies, "iterations": self.iterations,
@@ -112,16 +112,21 @@ def bake_rest(obj):
 
 
 class Baker:
-    """Solves frames start..end one step() at a time; writes nothing until
-    write_shape_keys() / write_pc2_cache(). The modal operator drives it one
-    frame per timer tick; bake_shape_keys() / bake_pc2() loop over it.
+    """Solves frames start..end one step() at a time; changes nothing in the
+    scene until write_shape_keys() / write_pc2_cache(). The modal operator
+    drives it one frame per timer tick; bake_shape_keys() / bake_pc2() loop
+    over it. With pc2_path, frames are streamed to a temporary file (memory
+    stays one frame) that write_pc2_cache() renames and cancel() removes;
+    otherwise they are kept in memory for the shape keys.
     """
 
     def __init__(self, obj, start, end, scene=None, iterations=None, tolerance=None, anderson=None,
-                 measure_gradient=False):
+                 measure_gradient=False, pc2_path=None):
         constraints.check_object(obj)
         if end < start:
             raise SetupError("The bake's end frame (%d) is before its start frame (%d)" % (end, start))
+        if engine.session_for(obj) is not None:
+            raise SetupError("ARAP Live is running on '%s': apply or cancel it before baking" % obj.name)
         self.obj = obj
         self.scene = scene or bpy.context.scene
         self.frames = list(range(int(start), int(end) + 1))
@@ -149,7 +154,13 @@ class Baker:
         self.targets = np.empty_like(self.rest_constrained)
         self.free = np.ones(len(self.rest64), bool)
         self.free[self.setup.constrained] = False
-        self.positions = np.empty((len(self.frames), len(self.rest64), 3), np.float32)
+        self.pc2_path = pc2_path
+        self.pc2 = None
+        if pc2_path:
+            self.positions = np.empty((1, len(self.rest64), 3), np.float32)
+            self.pc2 = PC2Writer(bpy.path.abspath(pc2_path), len(self.rest64), self.frames[0], len(self.frames))
+        else:
+            self.positions = np.empty((len(self.frames), len(self.rest64), 3), np.float32)
         self.index = 0
         self.result.bind_ms = (time.perf_counter() - t0) * 1e3
         self.started = time.perf_counter()
@@ -187,7 +198,10 @@ class Baker:
             guess = self.rest64.copy()
             guess[self.setup.constrained] = targets
             self.result.gradient_reference = self._gradient(guess)
-        stats = self.solver.solve(targets, out=self.positions[self.index])
+        out = self.positions[0 if self.pc2 else self.index]
+        stats = self.solver.solve(targets, out=out)
+        if self.pc2:
+            self.pc2.add(out)
         r = self.result
         r.ms.append((time.perf_counter() - t0) * 1e3)
         r.energies.append(stats.energy[-1] if stats.energy else stats.initial_energy)
@@ -210,7 +224,9 @@ class Baker:
         self.scene.frame_set(frame, subframe=sub)
 
     def cancel(self):
-        """Nothing was written: only put the scene's frame back."""
+        """Nothing was changed: remove the temporary .pc2 and put the scene's frame back."""
+        if self.pc2 is not None:
+            self.pc2.abort()
         self.restore_frame()
 
     def _finish(self, output, path, write):
@@ -223,19 +239,23 @@ class Baker:
         r = self.result
         r.write_ms = (time.perf_counter() - t0) * 1e3
         r.total_ms = (time.perf_counter() - self.started) * 1e3 + r.bind_ms
-        r.output, r.path, r.positions = output, path, self.positions
+        r.output, r.path = output, path
+        r.positions = None if self.pc2 else self.positions
         return r
 
     def write_shape_keys(self):
         """Replace any previous bake with one shape key per frame; returns the BakeResult."""
         return self._finish('SHAPE_KEYS', None, lambda: _write_keys(self.obj, self.frames, self.positions))
 
-    def write_pc2_cache(self, path):
-        """Write the .pc2 file (atomically) and the Mesh Cache modifier; returns the BakeResult."""
+    def write_pc2_cache(self):
+        """Rename the .pc2 into place and add the Mesh Cache modifier; returns the BakeResult."""
+        if self.pc2 is None:
+            raise RuntimeError("this Baker was made without pc2_path")
+
         def write():
-            write_pc2(bpy.path.abspath(path), self.positions, self.frames[0])
-            _add_cache_modifier(self.obj, path, self.frames[0])
-        return self._finish('PC2', path, write)
+            self.pc2.close()
+            _add_cache_modifier(self.obj, self.pc2_path, self.frames[0])
+        return self._finish('PC2', self.pc2_path, write)
 
 
 def bake_shape_keys(obj, start, end, scene=None, iterations=None, tolerance=None, anderson=None,
@@ -244,7 +264,8 @@ def bake_shape_keys(obj, start, end, scene=None, iterations=None, tolerance=None
 
     Each key holds the solved pose of its frame and is keyed to 1 at that frame
     and 0 at the frames next to it. iterations: at most this many per frame
-    (default 500); tolerance: relative energy change that stops a frame (1e-9);
+    (default 2000); tolerance: relative energy change that stops a frame
+    (default 1e-12: the float64 noise floor, i.e. a stationary point);
     anderson: Anderson window (5, 0 = plain local/global). Replaces a previous
     bake; the Basis and base mesh are not modified. Returns a BakeResult
     (energies, iterations, ms per frame). Raises SetupError on a bad set-up,
@@ -264,15 +285,16 @@ def bake_pc2(obj, path, start, end, scene=None, iterations=None, tolerance=None,
     """Bake frames start..end into the point cache `path` (.pc2, object-local
     coordinates, start frame = `start`, one sample per frame) and add a Mesh
     Cache modifier "ARAP Bake" reading it. `path` may be Blender-relative
-    ("//anim.pc2"). Other arguments and the result as bake_shape_keys().
+    ("//anim.pc2"). Other arguments and the result as bake_shape_keys(), but
+    result.positions is None: read them back with read_pc2(path).
     """
-    baker = Baker(obj, start, end, scene, iterations, tolerance, anderson, measure_gradient)
+    baker = Baker(obj, start, end, scene, iterations, tolerance, anderson, measure_gradient, pc2_path=path)
     try:
         baker.run(progress)
     except BaseException:
         baker.cancel()
         raise
-    return baker.write_pc2_cache(path)
+    return baker.write_pc2_cache()
 
 
 def clear_bake(obj):
@@ -345,22 +367,37 @@ def _write_keys(obj, frames, positions):
 PC2_HEADER = struct.Struct("<12siiffi")
 
 
-def write_pc2(path, positions, start, rate=1.0):
-    """Write a PC2 point cache: positions float32 (samples, n, 3) or (samples, 3n).
+class PC2Writer:
+    """Streams a PC2 point cache (object-local float32 xyz per point per sample)
+    into a temporary file next to `path`; close() renames it into place, so
+    readers never see half a file, and abort() removes it."""
 
-    Written to a temporary file next to `path` and renamed, so readers never
-    see half a file."""
-    data = np.ascontiguousarray(positions, dtype="<f4").reshape(len(positions), -1, 3)
-    samples, n = data.shape[:2]
-    tmp = "%s.tmp-%d" % (path, os.getpid())
-    try:
-        with open(tmp, "wb") as f:
-            f.write(PC2_HEADER.pack(b"POINTCACHE2\0", 1, n, float(start), float(rate), samples))
-            f.write(data.tobytes())
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    def __init__(self, path, points, start, samples, rate=1.0):
+        self.path = path
+        self.tmp = "%s.tmp-%d" % (path, os.getpid())
+        self.points, self.samples, self.written = points, samples, 0
+        self.file = open(self.tmp, "wb")
+        self.file.write(PC2_HEADER.pack(b"POINTCACHE2\0", 1, points, float(start), float(rate), samples))
+
+    def add(self, positions):
+        """Append one sample: float32 (points, 3) or (3 * points,)."""
+        data = np.ascontiguousarray(positions, dtype="<f4")
+        if data.size != 3 * self.points or self.written >= self.samples:
+            raise ValueError("PC2 sample %d: expected %d points" % (self.written, self.points))
+        self.file.write(data.tobytes())
+        self.written += 1
+
+    def close(self):
+        if self.written != self.samples:
+            self.abort()
+            raise ValueError("PC2 file has %d of %d samples" % (self.written, self.samples))
+        self.file.close()
+        os.replace(self.tmp, self.path)
+
+    def abort(self):
+        self.file.close()
+        if os.path.exists(self.tmp):
+            os.remove(self.tmp)
 
 
 def read_pc2(path):

@@ -52,11 +52,12 @@ class ARAP_OT_bake(bpy.types.Operator):
         return None
 
     def _start(self, context):
-        return bake.Baker(context.active_object, self.frame_start, self.frame_end, scene=context.scene)
+        return bake.Baker(context.active_object, self.frame_start, self.frame_end, scene=context.scene,
+                          pc2_path=self.filepath if self.output == 'PC2' else None)
 
     def _finish(self, baker):
         if self.output == 'PC2':
-            result = baker.write_pc2_cache(self.filepath)
+            result = baker.write_pc2_cache()
         else:
             result = baker.write_shape_keys()
         n = len(result.frames)

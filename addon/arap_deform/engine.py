@@ -176,6 +176,8 @@ def deform(obj, scene=None, iterations=None, tolerance=None, init=None):
     solver.max_iterations = iterations if iterations else s.iterations
     solver.tolerance = s.tolerance if tolerance is None else tolerance
     solver.init = INIT_NAMES[init or s.init]
+    solver.anderson_window = s.acceleration
+    solver.threads = s.threads
     result32 = np.empty(len(problem.rest32), np.float32)
     t1 = time.perf_counter()
     stats = solver.solve(targets, out=result32)
@@ -283,6 +285,8 @@ class LiveSession:
         self.solver.tolerance = s.tolerance
         self.solver.cold_start = INIT_NAMES[s.init]
         self.solver.init = "warm"
+        self.solver.anderson_window = s.acceleration
+        self.solver.threads = s.threads
         self.buffer = np.empty(len(self.problem.rest32), np.float32)
         self.write_enabled = write
         self.output = meshio.Output(obj, self.problem.output)

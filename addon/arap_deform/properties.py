@@ -25,9 +25,10 @@ WEIGHT_ITEMS = (
     ('UNIFORM', "Uniform", "Every edge weighs 1: ignores the triangle shapes"),
 )
 INIT_ITEMS = (
-    ('LAPLACIAN', "Laplacian", "One Laplacian-editing step with identity rotations"),
-    ('DIFFERENTIAL', "Differential", "Uniform-Laplacian differential coordinates"),
-    ('NAIVE', "Naive", "The rest shape with only the constrained vertices moved"),
+    ('NAIVE', "Naive", "The rest shape with only the constrained vertices moved: reaches the lowest energy "
+     "on the measured scenarios (see README)"),
+    ('LAPLACIAN', "Laplacian", "One Laplacian-editing step with identity rotations: a smoother start"),
+    ('DIFFERENTIAL', "Differential", "Uniform-Laplacian differential coordinates (Lipman et al. 2004)"),
 )
 OUTPUT_ITEMS = (
     ('AUTO', "Auto", "A shape key named \"ARAP\" when the mesh has shape keys, otherwise the mesh itself"),
@@ -81,8 +82,8 @@ class ARAP_PG_settings(PropertyGroup):
     active_handle: IntProperty(name="Active Handle", default=0, min=0)
     iterations: IntProperty(
         name="Iterations",
-        description="Local/global iterations of Deform",
-        default=10, min=1, max=1000,
+        description="Most local/global iterations of Deform (it stops earlier at the tolerance)",
+        default=100, min=1, max=1000,
     )
     live_iterations: IntProperty(
         name="Live Iterations",
@@ -100,7 +101,18 @@ class ARAP_PG_settings(PropertyGroup):
     )
     init: EnumProperty(
         name="First Guess", description="Positions the iterations start from",
-        items=INIT_ITEMS, default='LAPLACIAN',
+        items=INIT_ITEMS, default='NAIVE',
+    )
+    acceleration: IntProperty(
+        name="Acceleration",
+        description="Anderson acceleration window (Peng et al. 2018): how many past iterates to extrapolate from; "
+                    "0 = plain local/global. Each step is kept only if it lowers the energy",
+        default=5, min=0, max=20,
+    )
+    threads: IntProperty(
+        name="Threads",
+        description="Threads for the per-vertex steps; more than 1 only pays on large meshes on an idle machine",
+        default=1, min=1, max=64,
     )
     output: EnumProperty(
         name="Result", description="Where the deformed coordinates are written",

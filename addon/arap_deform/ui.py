@@ -72,6 +72,8 @@ class ARAP_PT_main(bpy.types.Panel):
         box.prop(s, "tolerance")
         box.prop(s, "weights")
         box.prop(s, "init")
+        box.prop(s, "acceleration")
+        box.prop(s, "threads")
         box.prop(s, "output")
 
         col = layout.column(align=True)
