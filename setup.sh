@@ -36,9 +36,8 @@ case "$mode" in
       --fixed-out "$BUILD/demo_fixed.txt" --handle-out "$BUILD/demo_handle.txt"
     "$BUILD/arap-deform" "$BUILD/demo_bar.obj" --fixed "$BUILD/demo_fixed.txt" \
       --handle "$BUILD/demo_handle.txt" --translate 2,0,-1 --iterations 20 --output "$BUILD/demo_bar_bent.obj"
-    if cmake --build "$BUILD" --target install_addon 2>/dev/null; then
-      cmake --build "$BUILD" --target demo_blend
-    fi
+    cmake --build "$BUILD" --target arap_addon_install
+    blender --background -noaudio --python-exit-code 1 --python addon/demo_pose.py -- "$BUILD/demo"
     ;;
   bench)
     cmake --build "$BUILD" --target run_benchmarks

@@ -61,8 +61,9 @@ class ARAP_OT_bake(bpy.types.Operator):
         else:
             result = baker.write_shape_keys()
         n = len(result.frames)
-        self.report({'INFO'}, "Baked %d frame(s) in %.2f s (%.1f ms/frame, %.1f iterations/frame)"
-                    % (n, result.total_ms / 1e3, sum(result.ms) / n, sum(result.iterations) / n))
+        total = "%.1f s" % (result.total_ms / 1e3) if result.total_ms >= 1e3 else "%.0f ms" % result.total_ms
+        self.report({'INFO'}, "Baked %d frame(s) in %s (%.1f ms/frame, %.1f iterations/frame)"
+                    % (n, total, sum(result.ms) / n, sum(result.iterations) / n))
 
     def _fail(self, exc):
         message = engine.user_error(exc) or (exc.strerror if isinstance(exc, OSError) else None)

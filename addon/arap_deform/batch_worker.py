@@ -45,6 +45,11 @@ class Interrupted(BaseException):
     """SIGTERM arrived: stop after cleaning up (not caught by `except Exception`)."""
 
 
+class _Stop:
+    requested = False   # SIGTERM seen (also when the exception was swallowed somewhere)
+    critical = False    # between renaming an output and reporting it: finish, then stop
+
+
 def temp_name(final, pid=None):
     """Hidden temporary file next to `final` (the launcher sweeps these by pid)."""
     folder, name = os.path.split(final)
@@ -159,6 +164,7 @@ def process(entry, job):
                 bpy.ops.object.mode_set(mode='OBJECT')
             rec["objects"].append(_pose(obj, job, scene, out, written))
         bpy.ops.wm.save_as_mainfile(filepath=tmp, copy=True, relative_remap=True)
+        _Stop.critical = True   # main() reports this file before honouring SIGTERM
         os.replace(tmp, out)
         rec["status"] = "ok"
     except FileFailed as exc:
@@ -175,7 +181,9 @@ def process(entry, job):
 
 
 def _on_sigterm(_signum, _frame):
-    raise Interrupted()
+    _Stop.requested = True
+    if not _Stop.critical:
+        raise Interrupted()
 
 
 def main(argv=None):
@@ -190,8 +198,12 @@ def main(argv=None):
     results = job.get("results")
     try:
         for entry in job["files"]:
+            if _Stop.requested:
+                raise Interrupted()
             _emit({"event": "start", "input": entry["input"]}, results)
-            _emit(process(entry, job), results)
+            rec = process(entry, job)
+            _emit(rec, results)
+            _Stop.critical = False
     except Interrupted:
         sys.stdout.flush()
         os._exit(143)

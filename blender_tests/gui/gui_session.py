@@ -63,6 +63,10 @@ def setup():
     # Show the sidebar on the ARAP tab so the panel is drawn (and screenshotted).
     win, area, region = view3d()
     area.spaces.active.show_region_ui = True
+    # Close enough that the bar fills the view and its bend reads in the screenshots.
+    view = area.spaces.active.region_3d
+    view.view_location = (0.0, 0.0, 0.3)
+    view.view_distance = 6.0
     # The driver switches tabs with Ctrl+Tab over the sidebar; this hook,
     # appended to the add-on's panel, tells it when the ARAP panel was drawn.
     bpy.types.ARAP_PT_main.append(panel_drawn)
