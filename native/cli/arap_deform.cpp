@@ -13,6 +13,7 @@
 #include "arap/errors.h"
 #include "arap/mesh_io.h"
 #include "arap/scenario.h"
+#include "arap/quality.h"
 #include "arap/solver.h"
 #include "deform_args.h"
 #include "deform_report.h"
@@ -107,6 +108,7 @@ int run(const cli::DeformArgs& args) {
   info.read_ms = read_ms;
   info.precompute_ms = precompute_ms;
   info.total_ms = ms_since(start);
+  info.distortion = rigidity_distortion(mesh.vertices, solver.positions(), triangles, &info.flipped_triangles);
 
   // Write both files under temporary names, then rename: all or nothing.
   const std::string mesh_tmp = temp_path_for(args.output);

@@ -37,6 +37,11 @@ nlohmann::json make_report(const RunInfo& run, const Solver& solver, const Solve
   r["rotation_fallbacks"] = stats.rotation_fallbacks;
   r["anderson_rejections"] = stats.anderson_rejections;
   r["factor_nonzeros"] = solver.factor_nonzeros();
+  r["bind_mesh_ms"] = solver.bind_stats().mesh_ms;
+  r["bind_ordering_ms"] = solver.bind_stats().ordering_ms;
+  r["bind_factor_ms"] = solver.bind_stats().factor_ms;
+  r["distortion"] = run.distortion;
+  r["flipped_triangles"] = run.flipped_triangles;
 
   r["degenerate_triangles"] = m.degenerate_triangles;
   r["isolated_vertices"] = m.isolated_vertices;

@@ -18,6 +18,9 @@ struct RunInfo {
   double read_ms = 0;
   double precompute_ms = 0;  // wall time of Solver::bind
   double total_ms = 0;       // read + bind + solve
+  // Weight-free look of the result (arap::rigidity_distortion) and flipped triangles.
+  double distortion = 0;
+  int flipped_triangles = 0;
 };
 
 // Energies, timings, options and the solver's mesh report as one JSON object.
