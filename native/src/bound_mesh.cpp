@@ -149,8 +149,11 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
     for (const auto& [row, value] : column) inner.push_back(row), values.push_back(value);
     outer[r + 1] = static_cast<int>(inner.size());
   }
-  m.laplacian_ff = Eigen::Map<const Eigen::SparseMatrix<double>>(nf, nf, static_cast<Eigen::Index>(inner.size()),
-                                                                 outer.data(), inner.data(), values.data());
+  m.laplacian_ff.resize(nf, nf);
+  m.laplacian_ff.resizeNonZeros(static_cast<Eigen::Index>(inner.size()));
+  std::copy(outer.begin(), outer.end(), m.laplacian_ff.outerIndexPtr());
+  std::copy(inner.begin(), inner.end(), m.laplacian_ff.innerIndexPtr());
+  std::copy(values.begin(), values.end(), m.laplacian_ff.valuePtr());
   return m;
 }
 

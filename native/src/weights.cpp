@@ -16,11 +16,6 @@ struct EdgeEntry {
   bool operator<(const EdgeEntry& o) const { return i != o.i ? i < o.i : j < o.j; }
 };
 
-// cot of the angle at `o` in the triangle (o, a, b): cos / sin = dot / |cross|.
-double cot_at(const Eigen::Vector3d& o, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  const Eigen::Vector3d u = a - o, v = b - o;
-  return u.dot(v) / u.cross(v).norm();
-}
 
 }  // namespace
 
@@ -38,12 +33,14 @@ std::vector<WeightedEdge> edge_weights(
       ++degenerate;
       continue;
     }
+    // |u x v| is twice the area at every corner: cot = (u . v) / |u x v| needs one square root.
+    const double inv_twice_area = 1.0 / (p[1] - p[0]).cross(p[2] - p[0]).norm();
     for (int k = 0; k < 3; ++k) {
       // The edge opposite corner k.
       const int a = (k + 1) % 3, b = (k + 2) % 3;
       double w = 1.0;
       if (kind != Weights::Uniform) {
-        const double c = cot_at(p[k], p[a], p[b]);
+        const double c = (p[a] - p[k]).dot(p[b] - p[k]) * inv_twice_area;
         w = 0.5 * (kind == Weights::CotanClamped ? std::max(c, 0.0) : c);
       }
       entries.push_back({std::min(idx[a], idx[b]), std::max(idx[a], idx[b]), w});
