@@ -23,7 +23,7 @@ long for_each_vertex(int n, int threads, const Body& body) {
 }  // namespace
 
 double local_step(const BoundMesh& m, const double* P, Eigen::Matrix3d* R, double* cell_energy, int threads,
-                  long* fallbacks) {
+                  long* fallbacks, double* lambda) {
   const int* begin = m.spoke_begin.data();
   const int* neighbor = m.neighbor.data();
   const Spoke* spokes = m.spokes.data();
@@ -41,7 +41,7 @@ double local_step(const BoundMesh& m, const double* P, Eigen::Matrix3d* R, doubl
     }
     Eigen::Matrix3d A;
     A << a00, a01, a02, a10, a11, a12, a20, a21, a22;
-    const bool fell_back = fit_rotation(A, R[i]);
+    const bool fell_back = fit_rotation(A, R[i], lambda ? lambda + i : nullptr);
     cell_energy[i] = deformed + m.rest_spoke_energy[i] - 2.0 * R[i].cwiseProduct(A).sum();
     return fell_back ? 1 : 0;
   });

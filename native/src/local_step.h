@@ -13,9 +13,11 @@ namespace arap {
 // rotation R_i maximising <R_i, A_i> (reflections fixed). Writes each cell's
 // energy sum_j w_ij |e'_ij - R_i e_ij|^2 = sum_j w_ij |e'_ij|^2 + sum_j w_ij |e_ij|^2
 // - 2 <R_i, A_i>, and returns the total ARAP energy (summed in vertex order, so
-// it does not depend on the thread count). P: #V by 3 row-major.
+// it does not depend on the thread count). P: #V by 3 row-major. `lambda`
+// (optional, #V) carries each cell's eigenvalue from one local step to the next
+// to start the rotation fit close to its answer (see rotation_fit.h).
 double local_step(const BoundMesh& m, const double* P, Eigen::Matrix3d* R, double* cell_energy, int threads,
-                  long* fallbacks);
+                  long* fallbacks, double* lambda = nullptr);
 
 // Right-hand side of the global step for the free rows (Sorkine & Alexa eq. 9):
 // b_i = 1/2 sum_j w_ij (R_i + R_j)(p_i - p_j) = 1/2 (R_i G_i + sum_j R_j g_ij),

@@ -44,7 +44,7 @@ double det4(const double M[4][4]) {
 
 }  // namespace
 
-bool fit_rotation(const Eigen::Matrix3d& A, Eigen::Matrix3d& R) {
+bool fit_rotation(const Eigen::Matrix3d& A, Eigen::Matrix3d& R, double* lambda_hint) {
   const double norm2 = A.squaredNorm();
   if (!(norm2 > 1e-300)) {
     R.setIdentity();  // an empty cell: any rotation is optimal
@@ -71,6 +71,17 @@ bool fit_rotation(const Eigen::Matrix3d& A, Eigen::Matrix3d& R) {
   const double c0 = det4(K);
   const double start = std::sqrt(3.0 * norm2);
   double lambda = start;
+  if (lambda_hint && *lambda_hint > 0) {
+    // l is above every root of f iff f, f', f'' and f''' (= 24 l) are all positive there.
+    for (const double margin : {1e-6, 1e-2}) {
+      const double l = std::min(start, *lambda_hint * (1 + margin));
+      const double l2 = l * l;
+      if ((l2 + c2) * l2 + c1 * l + c0 > 0 && (4.0 * l2 + 2.0 * c2) * l + c1 > 0 && 6.0 * l2 + c2 > 0) {
+        lambda = l;
+        break;
+      }
+    }
+  }
   bool newton_converged = false;
   for (int it = 0; it < 60; ++it) {
     const double l2 = lambda * lambda;
@@ -98,8 +109,10 @@ bool fit_rotation(const Eigen::Matrix3d& A, Eigen::Matrix3d& R) {
   // A (near) repeated top eigenvalue makes the adjugate vanish: use the SVD.
   if (!newton_converged || !(best_value > 1e-9 * start * start * start)) {
     R = fit_rotation_svd(A);
+    if (lambda_hint) *lambda_hint = 0;
     return true;
   }
+  if (lambda_hint) *lambda_hint = lambda;
   double q[4];
   for (int i = 0; i < 4; ++i) q[i] = (((i + best) & 1) ? -1.0 : 1.0) * minor3(M, i, best);
   const double inv = 1.0 / std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);

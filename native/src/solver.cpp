@@ -50,6 +50,7 @@ struct Solver::Impl {
   Points positions;  // the same in input order, as returned by positions()
   std::vector<Eigen::Matrix3d> rotations;
   std::vector<double> cell_energy, coupled, rhs, work;
+  std::vector<double> eigenvalues;  // per cell, warm start of the rotation fit
   AndersonAccelerator anderson;
   std::vector<double> free_before, free_after, free_next;  // #free by 3 each, for Anderson
 
@@ -125,7 +126,7 @@ struct Solver::Impl {
   double local(SolveStats& stats) {
     const auto t = Clock::now();
     const double e = local_step(mesh, state.data(), rotations.data(), cell_energy.data(), options.threads,
-                                &stats.rotation_fallbacks);
+                                &stats.rotation_fallbacks, eigenvalues.data());
     stats.rotation_ms += ms_since(t);
     rotations_valid = true;
     return e;
@@ -160,6 +161,7 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
   next->positions = rest;
   next->rotations.assign(n, Eigen::Matrix3d::Identity());
   next->cell_energy.assign(n, 0.0);
+  next->eigenvalues.assign(n, 0.0);
   next->coupled.assign(3 * nf, 0.0);
   next->rhs.assign(3 * nf, 0.0);
   next->work.assign(3 * nf, 0.0);

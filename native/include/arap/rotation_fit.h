@@ -13,7 +13,11 @@ namespace arap {
 // Newton's method on the characteristic polynomial and the eigenvector taken
 // from the adjugate of K - lambda I. Falls back to a full SVD when the
 // eigenvalue is (nearly) repeated; returns true when it did.
-bool fit_rotation(const Eigen::Matrix3d& A, Eigen::Matrix3d& R);
+// `lambda_hint` (optional, in/out): the top eigenvalue found for this cell last
+// time. Newton starts there when it is provably above the root (the polynomial
+// and its first three derivatives are positive there), which saves most of the
+// iterations between local steps; the new eigenvalue is written back.
+bool fit_rotation(const Eigen::Matrix3d& A, Eigen::Matrix3d& R, double* lambda_hint = nullptr);
 
 // Reference: Eigen's JacobiSVD with the reflection fixed.
 Eigen::Matrix3d fit_rotation_svd(const Eigen::Matrix3d& A);
