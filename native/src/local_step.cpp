@@ -1,23 +1,38 @@
 #include "local_step.h"
 
+#include <algorithm>
+#include <thread>
+#include <vector>
+
 #include "arap/rotation_fit.h"
 
 namespace arap {
 
 namespace {
 
-// Runs body(i) for i in [0, n): serially for one thread, so that the single-thread
-// path never enters (or starts) the OpenMP runtime; returns the sum of the results.
+// Runs body(i) for i in [0, n) and returns the sum of the results. With more
+// than one thread, contiguous chunks go to short-lived std::threads that are
+// joined before returning: nothing spins afterwards (an OpenMP pool's spinning
+// workers slowed the serial triangular solve that follows on 2 busy cores).
 template <class Body>
 long for_each_vertex(int n, int threads, const Body& body) {
-  long sum = 0;
-  if (threads > 1) {
-#pragma omp parallel for schedule(static) num_threads(threads) reduction(+ : sum)
-    for (int i = 0; i < n; ++i) sum += body(i);
-  } else {
-    for (int i = 0; i < n; ++i) sum += body(i);
-  }
-  return sum;
+  auto run = [&](int begin, int end) {
+    long sum = 0;
+    for (int i = begin; i < end; ++i) sum += body(i);
+    return sum;
+  };
+  threads = std::max(1, std::min(threads, n / 1024));  // small meshes: not worth a thread
+  if (threads == 1) return run(0, n);
+  std::vector<long> sums(threads, 0);
+  std::vector<std::thread> workers;
+  const int chunk = (n + threads - 1) / threads;
+  for (int t = 1; t < threads; ++t)
+    workers.emplace_back([&, t] { sums[t] = run(std::min(n, t * chunk), std::min(n, (t + 1) * chunk)); });
+  sums[0] = run(0, std::min(n, chunk));
+  for (auto& w : workers) w.join();
+  long total = 0;
+  for (long v : sums) total += v;
+  return total;
 }
 
 }  // namespace

@@ -29,7 +29,7 @@ struct Options {
   int max_iterations = 10;
   // Stop when (E_prev - E) <= tolerance * |E_prev|; 0 runs the whole budget.
   double tolerance = 1e-6;
-  // Worker threads for the local step and the right-hand side; 1 = no OpenMP region.
+  // Threads for the local step and the right-hand side (meshes of 2048+ vertices); 1 = none started.
   int threads = 1;
   // Anderson acceleration window (Peng et al. 2018); 0 = plain local/global.
   int anderson_window = 0;
