@@ -41,6 +41,8 @@ case "$mode" in
     ;;
   bench)
     cmake --build "$BUILD" --target run_benchmarks
+    blender --background --factory-startup -noaudio --python-exit-code 1 --python blender_tests/bench_live.py -- \
+      --addon-dir "$BUILD/addon" --sizes 10000,50000,200000 --frames 20 --output "$BUILD/results"
     ;;
   *)
     echo "usage: bash setup.sh [test|bench]" >&2

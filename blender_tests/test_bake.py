@@ -6,7 +6,6 @@ import unittest
 
 import bpy
 import numpy as np
-from mathutils import Matrix
 
 import arap_test_utils as U
 from arap_deform import api, bake, bake_ops

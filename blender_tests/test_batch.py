@@ -11,9 +11,7 @@ import os
 import shutil
 import signal
 import subprocess
-import sys
 import tempfile
-import time
 import unittest
 
 import bpy
@@ -55,6 +53,28 @@ def hashes(folder):
 
 def temp_leftovers(*folders):
     return [n for d in folders for n in os.listdir(d) if "arap-tmp" in n or ".tmp-" in n or n.endswith("@")]
+
+
+def blender_env():
+    """Without pyenv/virtualenv folders on PATH: Blender's Python would take their library."""
+    env = dict(os.environ)
+    env["PATH"] = os.pathsep.join(p for p in env.get("PATH", "").split(os.pathsep)
+                                  if "pyenv" not in p and "virtualenv" not in p)
+    return env
+
+
+def patched_blender(folder, name, patch):
+    """An executable that runs Blender with batch_worker.process(entry, job) wrapped:
+    `patch` is an expression run first, with `e` (the file entry) in scope."""
+    path = os.path.join(folder, name)
+    code = ("import os, signal, time; from arap_deform import batch_worker as w; "
+            "p = w.process; w.process = lambda e, j: (%s) or p(e, j); " % patch)
+    with open(path, "w") as f:
+        f.write("#!%s\nimport os, sys\nargs = sys.argv[1:]\ni = args.index('--python-expr') + 1\n"
+                "head, tail = args[i].rsplit('from ', 1)\nargs[i] = head + %r + 'from ' + tail\n"
+                "os.execv(%r, [%r] + args)\n" % (PYTHON, code, bpy.app.binary_path, bpy.app.binary_path))
+    os.chmod(path, 0o755)
+    return path
 
 
 def load_object(path, name="Bar"):
@@ -144,16 +164,9 @@ class Batch(unittest.TestCase):
         src, out = self.folder("in"), self.folder("out")
         for name in ("a", "b_crash", "c", "d"):
             S.make_good(os.path.join(src, name + ".blend"))
-        # A Blender wrapper whose worker segfaults on files named *crash*.
-        wrapper = os.path.join(self.root, "crashing-blender")
-        with open(wrapper, "w") as f:
-            f.write("#!%s\nimport os, sys\nargs = sys.argv[1:]\ni = args.index('--python-expr') + 1\n"
-                    "pre = args[i].rsplit('from ', 1)[0]\n"
-                    "args[i] = pre + ('import os, signal; from arap_deform import batch_worker as w; p = w.process; '"
-                    "'w.process = lambda e, j: os.kill(os.getpid(), signal.SIGSEGV) if \"b_crash\" in e[\"input\"] "
-                    "else p(e, j); ') + args[i][len(pre):]\n"
-                    "os.execv(%r, [%r] + args)\n" % (PYTHON, bpy.app.binary_path, bpy.app.binary_path))
-        os.chmod(wrapper, 0o755)
+        # A Blender whose worker segfaults on files named *b_crash*.
+        wrapper = patched_blender(self.root, "crashing-blender",
+                                  "'b_crash' in e['input'] and os.kill(os.getpid(), signal.SIGSEGV)")
         report = os.path.join(self.root, "crash.json")
         code, text = run_batch(src, "--output", out, "--jobs", 1, "--blender", wrapper, "--report", report)
         self.assertEqual(code, 1, text)
@@ -165,6 +178,52 @@ class Batch(unittest.TestCase):
             self.assertEqual(files[name + ".blend"]["status"], "ok", text)
         self.assertEqual(sorted(os.listdir(out)), ["a.blend", "c.blend", "d.blend"])
         self.assertEqual(temp_leftovers(out), [])
+
+    def test_timeout_fails_the_file_and_goes_on(self):
+        src, out = self.folder("in"), self.folder("out")
+        for name in ("a", "b_slow", "c"):
+            S.make_good(os.path.join(src, name + ".blend"))
+        wrapper = patched_blender(self.root, "slow-blender", "'b_slow' in e['input'] and time.sleep(120)")
+        report = os.path.join(self.root, "timeout.json")
+        code, text = run_batch(src, "--output", out, "--jobs", 1, "--blender", wrapper, "--timeout", 4,
+                               "--report", report)
+        self.assertEqual(code, 1, text)
+        with open(report) as f:
+            files = {os.path.basename(x["input"]): x for x in json.load(f)["files"]}
+        self.assertEqual(files["b_slow.blend"]["reason"], "timed out after 4 s")
+        self.assertEqual((files["a.blend"]["status"], files["c.blend"]["status"]), ("ok", "ok"), text)
+        self.assertEqual(sorted(os.listdir(out)), ["a.blend", "c.blend"])
+
+    def test_named_objects(self):
+        src, out = self.folder("in"), self.folder("out")
+        path = S.make_good(os.path.join(src, "a.blend"))
+        code, text = run_batch(path, "--output", out, "--objects", "Bar")
+        self.assertEqual(code, 0, text)
+        report = os.path.join(self.root, "objects.json")
+        code, text = run_batch(path, "--output", out, "--objects", "Bar", "Nope", "--report", report)
+        self.assertEqual(code, 1, text)
+        with open(report) as f:
+            self.assertEqual(json.load(f)["files"][0]["reason"], "object(s) not found in the scene: Nope")
+
+    def test_worker_alone_for_one_file(self):
+        # What a farm task runs: one Blender, one file, exit code = result.
+        src, out = self.folder("in"), self.folder("out")
+        good = S.make_good(os.path.join(src, "a.blend"))
+        bad = S.make_no_settings(os.path.join(src, "b.blend"))
+        addon = os.path.dirname(os.path.realpath(arap_deform.__file__))
+        expr = ("import sys; sys.path.insert(0, %r); from arap_deform import batch_worker; batch_worker.main()"
+                % os.path.dirname(addon))
+        codes = []
+        for inp in (good, bad):
+            p = subprocess.run([bpy.app.binary_path, "--background", "--factory-startup", "-noaudio",
+                                "--python-exit-code", "1", "--python-expr", expr, "--", "--input", inp,
+                                "--output", os.path.join(out, os.path.basename(inp)), "--frame", "1"],
+                               capture_output=True, text=True, timeout=120, env=blender_env())
+            codes.append(p.returncode)
+            lines = [l for l in p.stdout.splitlines() if l.startswith("@arap-batch ")]
+            self.assertEqual([json.loads(l[12:])["event"] for l in lines], ["start", "result"])
+        self.assertEqual(codes, [0, 1])
+        self.assertEqual(os.listdir(out), ["a.blend"])
 
     def test_sigint_leaves_inputs_and_finished_outputs(self):
         src, out = self.folder("in"), self.folder("out")

@@ -16,11 +16,17 @@ job.json:
      "objects": [] | ["Name", ...],   # default: every mesh with ARAP settings
      "results": null | "/path/results.jsonl"}
 
+Or, for one file (e.g. one farm task), the same settings as flags:
+
+    blender ... --python-expr "..." -- --input a.blend --output out/a.blend \
+        [--frame F | --bake START:END [--bake-format pc2]] [--iterations N] [--objects NAME ...]
+
 For every file, one JSON line {"event": "start", "input": ...} before it and
 one {"event": "result", "input", "output", "status": "ok" | "failed",
 "reason", "objects": [...], "ms"} after it, on stdout prefixed by
 "@arap-batch " (Blender prints its own lines there too) and appended to
-"results" when given. A failing file is reported and the worker goes on.
+"results" when given. A failing file is reported and the worker goes on;
+the exit code is 1 when any file failed, 0 otherwise.
 
 Outputs are saved to a hidden temporary file in the output folder and renamed
 over the final name (os.replace), so a killed worker never leaves half a
@@ -186,16 +192,41 @@ def _on_sigterm(_signum, _frame):
         raise Interrupted()
 
 
+def parse_job(argv):
+    """The job from `job.json` or from --input/--output flags (one file)."""
+    if len(argv) == 1 and not argv[0].startswith("-"):
+        with open(argv[0], encoding="utf-8") as f:
+            return json.load(f)
+    import argparse
+    p = argparse.ArgumentParser(prog="batch_worker", description="Pose or bake one .blend file "
+                                "(blender --background ... -- <job.json> handles many).")
+    p.add_argument("--input", required=True)
+    p.add_argument("--output", required=True, help="may equal --input (in place)")
+    p.add_argument("--frame", type=int)
+    p.add_argument("--bake", help="START:END")
+    p.add_argument("--bake-format", choices=("shapekeys", "pc2"), default="shapekeys")
+    p.add_argument("--iterations", type=int)
+    p.add_argument("--objects", nargs="+", default=[])
+    p.add_argument("--results")
+    a = p.parse_args(argv)
+    bake = [int(x) for x in a.bake.split(":")] if a.bake else None
+    return {"files": [{"input": os.path.abspath(a.input), "output": os.path.abspath(a.output)}],
+            "frame": a.frame, "bake": bake, "bake_format": a.bake_format, "iterations": a.iterations,
+            "objects": a.objects, "results": a.results}
+
+
 def main(argv=None):
-    argv = sys.argv[sys.argv.index("--") + 1:] if argv is None and "--" in sys.argv else (argv or [])
-    if len(argv) != 1:
-        print("usage: blender --background ... -- <job.json>", file=sys.stderr)
-        sys.exit(2)
-    with open(argv[0], encoding="utf-8") as f:
-        job = json.load(f)
+    if argv is None:
+        argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    try:
+        job = parse_job(argv)
+    except SystemExit as exc:  # argparse: usage error
+        sys.stdout.flush()
+        os._exit(exc.code if isinstance(exc.code, int) else 2)
     signal.signal(signal.SIGTERM, _on_sigterm)
     _ensure_addon()
     results = job.get("results")
+    failed = 0
     try:
         for entry in job["files"]:
             if _Stop.requested:
@@ -204,9 +235,10 @@ def main(argv=None):
             rec = process(entry, job)
             _emit(rec, results)
             _Stop.critical = False
+            failed += rec["status"] != "ok"
     except Interrupted:
         sys.stdout.flush()
         os._exit(143)
     sys.stdout.flush()
     # os._exit: skip Blender's exit path (it would print and free the last file).
-    os._exit(0)
+    os._exit(1 if failed else 0)
