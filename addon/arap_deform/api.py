@@ -28,10 +28,13 @@ import numpy as np
 from . import constraints, engine
 from .constraints import SetupError
 from .engine import DeformResult, LiveSession, NativeModuleError, SessionError  # noqa: F401
+# Animation bake (see bake.py): shape keys per frame, or a .pc2 point cache read by a Mesh Cache modifier.
+from .bake import bake_pc2, bake_shape_keys, clear_bake, read_pc2  # noqa: F401
 
 __all__ = ("SetupError", "SessionError", "NativeModuleError", "DeformResult", "LiveSession", "settings",
            "set_fixed", "add_handle", "remove_handle", "create_group", "deform", "bind", "set_rest_pose",
-           "reset", "start_session", "rest_positions", "ArapError")
+           "reset", "start_session", "rest_positions", "ArapError", "bake_shape_keys", "bake_pc2", "clear_bake",
+           "read_pc2")
 
 
 def __getattr__(name):

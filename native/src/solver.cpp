@@ -1,5 +1,6 @@
 #include "arap/solver.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -196,6 +197,8 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     if (guess == InitialGuess::WarmStart && !s.has_solution) guess = s.options.cold_start;
     // A warm start keeps the rotations of the last solution for its first global step.
     const bool reuse_rotations = guess == InitialGuess::WarmStart && s.rotations_valid;
+    // A cold start forgets every hint of the last solve: same input, same output bit for bit.
+    if (guess != InitialGuess::WarmStart) std::fill(s.eigenvalues.begin(), s.eigenvalues.end(), 0.0);
     s.apply_targets(targets, s.state);
     s.first_guess(guess);
     stats.init_ms = ms_since(t);
