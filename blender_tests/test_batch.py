@@ -227,7 +227,8 @@ class Batch(unittest.TestCase):
 
     def test_sigint_leaves_inputs_and_finished_outputs(self):
         src, out = self.folder("in"), self.folder("out")
-        for k in range(16):
+        # Enough files that the run is surely still going when the signal lands, even on a loaded machine.
+        for k in range(30):
             S.make_good(os.path.join(src, "f%02d.blend" % k), vertices=64, cuts=120)
         before = hashes(src)
         report = os.path.join(self.root, "sigint.json")
@@ -236,7 +237,7 @@ class Batch(unittest.TestCase):
         lines = []
         for line in p.stdout:
             lines.append(line)
-            if line.startswith("[1/16] ok"):
+            if line.startswith("[1/30] ok"):
                 p.send_signal(signal.SIGINT)
                 break
         rest = p.communicate(timeout=60)[0]
@@ -249,7 +250,7 @@ class Batch(unittest.TestCase):
         self.assertTrue(r["interrupted"])
         done = [f for f in r["files"] if f["status"] == "ok"]
         self.assertGreaterEqual(len(done), 1)
-        self.assertLess(len(done), 16)
+        self.assertLess(len(done), 30)
         self.assertEqual(sorted(os.listdir(out)), sorted(os.path.basename(f["output"]) for f in done))
         for f in done:  # every finished output is a whole, readable .blend
             posed, _k, _m = load_object(f["output"])

@@ -54,6 +54,17 @@ class Deform(unittest.TestCase):
         r2 = api.deform(obj, iterations=3, tolerance=0.0)
         self.assertTrue(r2.cached_bind, "the second deform with unchanged inputs reuses the bind")
 
+    def test_last_result_reports_the_operator_run(self):
+        obj, empty, _f, _t = U.bar_with_handle()
+        self.assertIsNone(api.last_result(obj))
+        empty.location.x += 0.5
+        self.assertEqual(bpy.ops.object.arap_deform(iterations=7), {'FINISHED'})
+        last = api.last_result(obj)
+        self.assertIsNotNone(last)
+        self.assertLessEqual(last.iterations, 7)
+        self.assertEqual(len(last.energies), last.iterations)
+        self.assertLess(last.energy, last.initial_energy)
+
     def test_repeat_deform_uses_rest_not_previous_result(self):
         obj, empty, _f, _t = U.bar_with_handle()
         rest = U.coords(obj)

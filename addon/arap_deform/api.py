@@ -34,7 +34,7 @@ from .bake import bake_pc2, bake_shape_keys, clear_bake, read_pc2  # noqa: F401
 __all__ = ("SetupError", "SessionError", "NativeModuleError", "DeformResult", "LiveSession", "settings",
            "set_fixed", "add_handle", "remove_handle", "create_group", "deform", "bind", "set_rest_pose",
            "reset", "start_session", "rest_positions", "ArapError", "bake_shape_keys", "bake_pc2", "clear_bake",
-           "read_pc2")
+           "read_pc2", "last_result")
 
 
 def __getattr__(name):
@@ -124,6 +124,12 @@ def start_session(obj, scene=None, iterations=None, write=True):
     object-local) after each step, e.g. to bake frames.
     """
     return LiveSession(obj, scene=scene, iterations=iterations, write=write)
+
+
+def last_result(obj):
+    """Energies and timings of the last Deform or bake of `obj` in this session
+    (operators included): a DeformResult or BakeResult, or None."""
+    return engine.last_result(obj)
 
 
 def rest_positions(obj):

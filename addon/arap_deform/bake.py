@@ -243,6 +243,7 @@ class Baker:
         r.total_ms = (time.perf_counter() - self.started) * 1e3 + r.bind_ms
         r.output, r.path = output, path
         r.positions = None if self.pc2 else self.positions
+        engine.remember_result(self.obj, r)
         return r
 
     def write_shape_keys(self):

@@ -112,7 +112,9 @@ def bound_solver(obj, rest64, tris, constrained, weights):
 
 
 def clear_cache():
+    """Forget bound solvers and last results (e.g. after objects were deleted)."""
     _cache.clear()
+    _last_results.clear()
 
 
 def unconstrained_warning(report):
@@ -194,7 +196,21 @@ def deform(obj, scene=None, iterations=None, tolerance=None, init=None):
     if w:
         warnings.append(w)
     io_ms = (t1 - t0 + t3 - t2) * 1000.0 - bind_ms
-    return DeformResult(stats, bind_ms, io_ms, problem.output, warnings, report, cached)
+    return remember_result(obj, DeformResult(stats, bind_ms, io_ms, problem.output, warnings, report, cached))
+
+
+# The last DeformResult or BakeResult of each object in this Blender session (not saved in the .blend).
+_last_results = {}
+
+
+def remember_result(obj, result):
+    _last_results[obj.as_pointer()] = result
+    return result
+
+
+def last_result(obj):
+    """The last DeformResult / BakeResult made for `obj` in this session, or None."""
+    return _last_results.get(obj.as_pointer())
 
 
 def reset(obj):
