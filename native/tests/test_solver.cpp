@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <thread>
+
 #include <Eigen/Geometry>
 
 #include "arap/solver.h"
@@ -188,6 +190,24 @@ TEST(Solver, RepeatedColdSolvesAreBitIdentical) {
   solver.solve(other.targets);  // a different solve in between
   solver.solve(t.targets);
   EXPECT_EQ(solver.positions(), first);
+}
+
+TEST(Solver, SeparateInstancesRunConcurrently) {
+  // No global state: two solvers on two threads give what each gives alone.
+  const BentTube a(2.5), b(1.0);
+  auto solve = [](const BentTube& t) {
+    arap::Solver solver;
+    solver.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 30));
+    solver.solve(t.targets);
+    return arap::Points(solver.positions());
+  };
+  const arap::Points alone_a = solve(a), alone_b = solve(b);
+  arap::Points together_a, together_b;
+  std::thread other([&] { together_a = solve(a); });
+  together_b = solve(b);
+  other.join();
+  EXPECT_EQ(together_a, alone_a);
+  EXPECT_EQ(together_b, alone_b);
 }
 
 TEST(Solver, ToleranceStopsEarlyAndReportsIt) {
