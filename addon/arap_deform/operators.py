@@ -182,34 +182,32 @@ class ARAP_OT_deform(bpy.types.Operator):
         return {'FINISHED'}
 
 
-class ARAP_OT_reset(bpy.types.Operator):
+class _ApplyToActiveObject:
+    """Mixin: execute() runs `action` (an api function) on the active object and reports its errors."""
+    action = None
+
+    def execute(self, context):
+        try:
+            type(self).action(context.active_object)
+        except Exception as exc:  # noqa: BLE001 - _report_error re-raises what is not a user error
+            return _report_error(self, exc)
+        return {'FINISHED'}
+
+
+class ARAP_OT_reset(_ApplyToActiveObject, bpy.types.Operator):
     """Put the mesh back to its rest shape and take the empties' current poses as their bind poses"""
     bl_idname = "object.arap_reset"
     bl_label = "Reset to Rest"
     bl_options = {'REGISTER', 'UNDO'}
-
-    def execute(self, context):
-        obj = context.active_object
-        try:
-            api.reset(obj)
-        except Exception as exc:  # noqa: BLE001
-            return _report_error(self, exc)
-        return {'FINISHED'}
+    action = staticmethod(api.reset)
 
 
-class ARAP_OT_set_rest_pose(bpy.types.Operator):
+class ARAP_OT_set_rest_pose(_ApplyToActiveObject, bpy.types.Operator):
     """Take the current shape as the rest shape and the empties' current poses as bind poses"""
     bl_idname = "object.arap_set_rest_pose"
     bl_label = "Set Rest Pose"
     bl_options = {'REGISTER', 'UNDO'}
-
-    def execute(self, context):
-        obj = context.active_object
-        try:
-            api.set_rest_pose(obj)
-        except Exception as exc:  # noqa: BLE001
-            return _report_error(self, exc)
-        return {'FINISHED'}
+    action = staticmethod(api.set_rest_pose)
 
 
 class ARAP_OT_live(bpy.types.Operator):
