@@ -65,6 +65,23 @@ class Deform(unittest.TestCase):
         self.assertEqual(len(last.energies), last.iterations)
         self.assertLess(last.energy, last.initial_energy)
 
+    def test_reset_and_set_rest_pose_operators(self):
+        obj, empty, _f, _t = U.bar_with_handle()
+        rest = U.coords(obj)
+        empty.location.x += 0.5
+        self.assertEqual(bpy.ops.object.arap_deform(), {'FINISHED'})
+        posed = U.coords(obj)
+        self.assertEqual(bpy.ops.object.arap_reset(), {'FINISHED'})
+        np.testing.assert_array_equal(U.coords(obj), rest)
+        self.assertEqual(bpy.ops.object.arap_deform(), {'FINISHED'})  # the empty's pose is the new bind pose
+        np.testing.assert_allclose(U.coords(obj), rest, atol=1e-6)
+        empty.location.x += 0.5
+        bpy.ops.object.arap_deform()
+        np.testing.assert_allclose(U.coords(obj), posed, atol=1e-5)  # the same move again
+        self.assertEqual(bpy.ops.object.arap_set_rest_pose(), {'FINISHED'})
+        bpy.ops.object.arap_deform()
+        np.testing.assert_allclose(U.coords(obj), posed, atol=1e-6)  # nothing moved since the new rest
+
     def test_repeat_deform_uses_rest_not_previous_result(self):
         obj, empty, _f, _t = U.bar_with_handle()
         rest = U.coords(obj)
