@@ -44,8 +44,16 @@ void check_input(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Tr
 }  // namespace
 
 BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
-                           const std::vector<int>& constrained, Weights weights) {
+                           const std::vector<int>& constrained, Weights weights,
+                           const std::vector<double>& stiffness) {
   check_input(rest, triangles, constrained);
+  if (!stiffness.empty() && stiffness.size() != static_cast<size_t>(rest.rows()))
+    throw Error(ErrorCode::InvalidInput, "expected one stiffness per vertex (" + std::to_string(rest.rows()) +
+                                             "), got " + std::to_string(stiffness.size()));
+  for (size_t v = 0; v < stiffness.size(); ++v)
+    if (!(stiffness[v] > 0) || !std::isfinite(stiffness[v]))
+      throw Error(ErrorCode::InvalidInput,
+                  "the stiffness of vertex " + std::to_string(v) + " must be a finite number > 0");
   BoundMesh m;
   m.n = static_cast<int>(rest.rows());
   m.report.vertices = m.n;
@@ -62,6 +70,9 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   for (int k = 0; k < m.n; ++k) m.rank[m.order[k]] = k;
   m.rest.resize(m.n, 3);
   for (int k = 0; k < m.n; ++k) m.rest.row(k) = rest.row(m.order[k]);
+  m.stiffness.assign(m.n, 1.0);
+  if (!stiffness.empty())
+    for (int k = 0; k < m.n; ++k) m.stiffness[k] = stiffness[m.order[k]];
 
   // Components without a constraint and isolated vertices are kept at rest.
   std::vector<int> component;
@@ -123,8 +134,9 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
     add_spoke(m.rank[e.j], m.rank[e.i], e.w);
   }
 
-  // Free block of L (L_ii = sum_j w_ij, L_ij = -w_ij), assembled column by column
-  // (it is symmetric), and its coupling to constrained vertices.
+  // Free block of L (L_ii = sum_j w~_ij, L_ij = -w~_ij with w~_ij = w_ij (s_i + s_j) / 2,
+  // the stiffness-weighted edge), assembled column by column (it is symmetric),
+  // and its coupling to constrained vertices.
   const int nf = static_cast<int>(m.free_vertices.size());
   std::vector<int> outer(nf + 1, 0), inner;
   std::vector<double> values;
@@ -137,7 +149,7 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
     column.clear();
     for (int k = m.spoke_begin[i]; k < m.spoke_begin[i + 1]; ++k) {
       const int j = m.neighbor[k];
-      const double w = m.spokes[k].w;
+      const double w = m.spokes[k].w * 0.5 * (m.stiffness[i] + m.stiffness[j]);
       diagonal += w;
       if (m.free_row[j] >= 0)
         column.emplace_back(m.free_row[j], -w);

@@ -39,6 +39,7 @@ struct BoundMesh {
   std::vector<Spoke> spokes;
   std::vector<double> rest_spoke_energy;  // sum_j w_ij |p_i - p_j|^2 (rest), per vertex
   std::vector<double> g_sum;              // G_i = sum_j g_ij, 3 per vertex
+  std::vector<double> stiffness;          // s_i, per vertex (all 1 unless given)
   // Constrained = the user's constraints, then vertices kept at rest (components
   // without constraints and isolated vertices).
   std::vector<int> constrained;       // slot -> internal vertex
@@ -53,7 +54,8 @@ struct BoundMesh {
 // Checks the input (throws arap::Error) and builds the bound mesh.
 // `constrained` and `triangles` use input indices.
 BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
-                           const std::vector<int>& constrained, Weights weights);
+                           const std::vector<int>& constrained, Weights weights,
+                           const std::vector<double>& stiffness);
 
 // Rows of P moved between input and internal order.
 void to_internal(const BoundMesh& m, const Eigen::Ref<const Points>& input, Points& internal);

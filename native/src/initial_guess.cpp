@@ -11,7 +11,13 @@ void laplacian_guess(const BoundMesh& m, const BlockCholesky& laplacian, const d
   rhs.resize(3 * nf);
   for (size_t r = 0; r < nf; ++r) {
     const int i = m.free_vertices[r];
-    for (int d = 0; d < 3; ++d) rhs[3 * r + d] = m.g_sum[3 * i + d] + coupled[3 * r + d];
+    double b[3] = {m.stiffness[i] * m.g_sum[3 * i], m.stiffness[i] * m.g_sum[3 * i + 1],
+                   m.stiffness[i] * m.g_sum[3 * i + 2]};
+    for (int k = m.spoke_begin[i]; k < m.spoke_begin[i + 1]; ++k) {
+      const double sj = m.stiffness[m.neighbor[k]];
+      b[0] += sj * m.spokes[k].gx, b[1] += sj * m.spokes[k].gy, b[2] += sj * m.spokes[k].gz;
+    }
+    for (int d = 0; d < 3; ++d) rhs[3 * r + d] = 0.5 * b[d] + coupled[3 * r + d];
   }
   laplacian.solve_in_place(rhs.data(), work);
   for (size_t r = 0; r < nf; ++r) P.row(m.free_vertices[r]) << rhs[3 * r], rhs[3 * r + 1], rhs[3 * r + 2];

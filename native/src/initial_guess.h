@@ -11,7 +11,8 @@
 namespace arap {
 
 // Laplacian editing with identity rotations: one global step,
-// L_ff p_f = (L p)_f - L_fc p_c, i.e. rhs_i = G_i + sum of w_ij p_j over constrained j.
+// L_ff p_f = (L p)_f - L_fc p_c, i.e. rhs_i = 1/2 (s_i G_i + sum_j s_j g_ij) + sum of
+// w~_ij p_j over constrained j (= G_i + ... when every stiffness is 1).
 void laplacian_guess(const BoundMesh& m, const BlockCholesky& laplacian, const double* coupled, Points& P,
                      std::vector<double>& rhs, std::vector<double>& work);
 

@@ -57,7 +57,7 @@ double local_step(const BoundMesh& m, const double* P, Eigen::Matrix3d* R, doubl
     Eigen::Matrix3d A;
     A << a00, a01, a02, a10, a11, a12, a20, a21, a22;
     const bool fell_back = fit_rotation(A, R[i], lambda ? lambda + i : nullptr);
-    cell_energy[i] = deformed + m.rest_spoke_energy[i] - 2.0 * R[i].cwiseProduct(A).sum();
+    cell_energy[i] = m.stiffness[i] * (deformed + m.rest_spoke_energy[i] - 2.0 * R[i].cwiseProduct(A).sum());
     return fell_back ? 1 : 0;
   });
   if (fallbacks) *fallbacks += fallback_count;
@@ -70,10 +70,12 @@ void assemble_rhs(const BoundMesh& m, const Eigen::Matrix3d* R, const double* co
   const int nf = static_cast<int>(m.free_vertices.size());
   for_each_vertex(nf, threads, [&](int r) -> long {
     const int i = m.free_vertices[r];
-    Eigen::Vector3d b = R[i] * Eigen::Vector3d(m.g_sum[3 * i], m.g_sum[3 * i + 1], m.g_sum[3 * i + 2]);
+    Eigen::Vector3d b =
+        m.stiffness[i] * (R[i] * Eigen::Vector3d(m.g_sum[3 * i], m.g_sum[3 * i + 1], m.g_sum[3 * i + 2]));
     for (int k = m.spoke_begin[i]; k < m.spoke_begin[i + 1]; ++k) {
       const Spoke& s = m.spokes[k];
-      b += R[m.neighbor[k]] * Eigen::Vector3d(s.gx, s.gy, s.gz);
+      const int j = m.neighbor[k];
+      b += m.stiffness[j] * (R[j] * Eigen::Vector3d(s.gx, s.gy, s.gz));
     }
     rhs[3 * r] = 0.5 * b.x() + coupled[3 * r];
     rhs[3 * r + 1] = 0.5 * b.y() + coupled[3 * r + 1];
@@ -85,12 +87,15 @@ void assemble_rhs(const BoundMesh& m, const Eigen::Matrix3d* R, const double* co
 void energy_gradient(const BoundMesh& m, const double* P, const Eigen::Matrix3d* R, double* gradient) {
   for (int i = 0; i < m.n; ++i) {
     const Eigen::Vector3d pi(P[3 * i], P[3 * i + 1], P[3 * i + 2]);
-    Eigen::Vector3d g = -2.0 * (R[i] * Eigen::Vector3d(m.g_sum[3 * i], m.g_sum[3 * i + 1], m.g_sum[3 * i + 2]));
+    const double si = m.stiffness[i];
+    Eigen::Vector3d g =
+        -2.0 * si * (R[i] * Eigen::Vector3d(m.g_sum[3 * i], m.g_sum[3 * i + 1], m.g_sum[3 * i + 2]));
     for (int k = m.spoke_begin[i]; k < m.spoke_begin[i + 1]; ++k) {
       const int j = m.neighbor[k];
       const Spoke& s = m.spokes[k];
-      g += 4.0 * s.w * (pi - Eigen::Vector3d(P[3 * j], P[3 * j + 1], P[3 * j + 2]));
-      g -= 2.0 * (R[j] * Eigen::Vector3d(s.gx, s.gy, s.gz));
+      const double sj = m.stiffness[j];
+      g += 2.0 * s.w * (si + sj) * (pi - Eigen::Vector3d(P[3 * j], P[3 * j + 1], P[3 * j + 2]));
+      g -= 2.0 * sj * (R[j] * Eigen::Vector3d(s.gx, s.gy, s.gz));
     }
     gradient[3 * i] = g.x(), gradient[3 * i + 1] = g.y(), gradient[3 * i + 2] = g.z();
   }

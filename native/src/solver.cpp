@@ -140,13 +140,14 @@ Solver::Solver(Solver&&) noexcept = default;
 Solver& Solver::operator=(Solver&&) noexcept = default;
 
 void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
-                  const std::vector<int>& constrained, const Options& options) {
+                  const std::vector<int>& constrained, const Options& options,
+                  const std::vector<double>& stiffness) {
   check_options(options);
   const auto start = Clock::now();
   auto next = std::make_unique<Impl>();
   next->options = options;
   next->bound_weights = options.weights;
-  next->mesh = build_bound_mesh(rest, triangles, constrained, options.weights);
+  next->mesh = build_bound_mesh(rest, triangles, constrained, options.weights, stiffness);
   next->bind_stats.mesh_ms = ms_since(start);
   next->triangles.resize(triangles.rows(), 3);
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <thread>
 
 #include <Eigen/Geometry>
@@ -263,6 +264,81 @@ TEST(Quality, RigidMotionHasNoDistortionAndStretchHas) {
   int flipped = -1;
   EXPECT_NEAR(arap::rigidity_distortion(m.V, stretched, m.F, &flipped), 1.0, 1e-9);
   EXPECT_EQ(flipped, 0);
+}
+
+}  // namespace
+
+namespace {
+
+std::vector<double> middle_rings_stiff(const arap_test::Mesh& m, double value) {
+  std::vector<double> s(m.V.rows(), 1.0);
+  for (Eigen::Index v = 0; v < m.V.rows(); ++v)
+    if (m.V(v, 2) > 2.0 && m.V(v, 2) < 4.0) s[v] = value;
+  return s;
+}
+
+TEST(Stiffness, UniformScaleChangesTheEnergyNotTheShape) {
+  const BentTube t;
+  arap::Solver plain, scaled;
+  plain.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Laplacian, 40));
+  scaled.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Laplacian, 40),
+              std::vector<double>(t.mesh.V.rows(), 3.0));
+  const auto a = plain.solve(t.targets), b = scaled.solve(t.targets);
+  EXPECT_LT((plain.positions() - scaled.positions()).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_NEAR(b.energy.back(), 3.0 * a.energy.back(), 1e-9 * a.energy.back());
+}
+
+TEST(Stiffness, GradientMatchesFiniteDifferencesAndEnergyNeverIncreases) {
+  const BentTube t;
+  arap::Solver solver;
+  solver.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 30),
+              middle_rings_stiff(t.mesh, 8.0));
+  const auto stats = solver.solve(t.targets);
+  for (size_t k = 1; k < stats.energy.size(); ++k)
+    EXPECT_LE(stats.energy[k], stats.energy[k - 1] + 1e-12 * stats.energy[0]);
+  const arap::Points P = solver.positions();
+  const arap::Points gradient = solver.energy_gradient(P);
+  const double h = 1e-6;
+  for (int v : {60, 150, 170, 250})
+    for (int d = 0; d < 3; ++d) {
+      arap::Points plus = P, minus = P;
+      plus(v, d) += h;
+      minus(v, d) -= h;
+      const double numeric = (solver.energy(plus) - solver.energy(minus)) / (2 * h);
+      EXPECT_NEAR(gradient(v, d), numeric, 1e-5 * (1 + std::abs(numeric))) << "vertex " << v << " axis " << d;
+    }
+}
+
+TEST(Stiffness, AStiffRegionBendsLess) {
+  const BentTube t;
+  auto middle_distortion = [&](const std::vector<double>& stiffness) {
+    arap::Solver solver;
+    solver.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Laplacian, 300), stiffness);
+    solver.solve(t.targets);
+    // Triangles of the middle third only.
+    arap::Triangles middle(0, 3);
+    for (Eigen::Index f = 0; f < t.mesh.F.rows(); ++f) {
+      const double z = t.mesh.V(t.mesh.F(f, 0), 2);
+      if (z > 2.2 && z < 3.8) {
+        middle.conservativeResize(middle.rows() + 1, 3);
+        middle.row(middle.rows() - 1) = t.mesh.F.row(f);
+      }
+    }
+    return arap::rigidity_distortion(t.mesh.V, solver.positions(), middle);
+  };
+  const double soft = middle_distortion({}), stiff = middle_distortion(middle_rings_stiff(t.mesh, 20.0));
+  EXPECT_LT(stiff, 0.5 * soft);
+}
+
+TEST(Stiffness, BadValuesAreRefused) {
+  const BentTube t;
+  arap::Solver solver;
+  std::vector<double> s(t.mesh.V.rows(), 1.0);
+  s[5] = 0.0;
+  EXPECT_THROW(solver.bind(t.mesh.V, t.mesh.F, t.constrained, arap::Options(), s), arap::Error);
+  s[5] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(solver.bind(t.mesh.V, t.mesh.F, t.constrained, arap::Options(), s), arap::Error);
+  EXPECT_THROW(solver.bind(t.mesh.V, t.mesh.F, t.constrained, arap::Options(), {1.0, 2.0}), arap::Error);
 }
 
 }  // namespace

@@ -54,9 +54,12 @@ class Solver {
 
   // rest: #V by 3 rest positions; triangles: #F by 3; constrained: indices of
   // the vertices whose positions solve() receives (fixed and handles alike,
-  // no duplicates). Throws arap::Error on bad input.
+  // no duplicates). stiffness (optional, #V values > 0, default all 1) scales
+  // each cell's term of the energy: E = sum_i s_i sum_j w_ij |e'_ij - R_i e_ij|^2,
+  // so a region with larger s bends less. Throws arap::Error on bad input.
   void bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
-            const std::vector<int>& constrained, const Options& options = Options());
+            const std::vector<int>& constrained, const Options& options = Options(),
+            const std::vector<double>& stiffness = {});
 
   // targets: #constrained by 3, in the order given to bind(). Runs up to
   // options().max_iterations iterations from options().init and leaves the
@@ -84,10 +87,10 @@ class Solver {
   long factor_nonzeros() const;
 
   // ARAP energy of `positions` with the optimal rotation of every cell and the
-  // weights in use: sum_i sum_j w_ij |(p'_i - p'_j) - R_i (p_i - p_j)|^2.
+  // weights in use: sum_i s_i sum_j w_ij |(p'_i - p'_j) - R_i (p_i - p_j)|^2.
   double energy(const Eigen::Ref<const Points>& positions) const;
   // Its gradient with respect to every vertex position (#V by 3):
-  // dE/dp'_i = 4 sum_j w_ij (p'_i - p'_j) - 2 sum_j w_ij (R_i + R_j)(p_i - p_j).
+  // dE/dp'_i = 2 sum_j w_ij (s_i + s_j)(p'_i - p'_j) - 2 sum_j w_ij (s_i R_i + s_j R_j)(p_i - p_j).
   Points energy_gradient(const Eigen::Ref<const Points>& positions) const;
 
  private:
