@@ -82,6 +82,34 @@ class Deform(unittest.TestCase):
         bpy.ops.object.arap_deform()
         np.testing.assert_allclose(U.coords(obj), posed, atol=1e-6)  # nothing moved since the new rest
 
+    def test_stiff_group_bends_less(self):
+        def middle_bend(stiff):
+            U.clear_scene()
+            obj, empty, _f, _t = U.bar_with_handle()
+            U.group_where(obj, "torso", lambda co: -0.8 < co.z < 0.8)
+            if stiff:
+                obj.arap.stiff_group = "torso"
+                obj.arap.stiffness = 50.0
+            rest = U.coords(obj)
+            empty.location.x += 1.0
+            api.deform(obj)
+            posed = U.coords(obj)
+            middle = np.abs(rest[:, 2]) < 0.8
+            # How far the middle departs from a rigid motion: residual of the best affine fit.
+            a = np.c_[rest[middle], np.ones(middle.sum())]
+            fit, *_ = np.linalg.lstsq(a, posed[middle], rcond=None)
+            return np.abs(a @ fit - posed[middle]).max()
+        self.assertLess(middle_bend(True), 0.5 * middle_bend(False))
+
+    def test_missing_stiff_group_is_a_setup_error(self):
+        obj, empty, _f, _t = U.bar_with_handle()
+        obj.arap.stiff_group = "nope"
+        rest = U.coords(obj)
+        empty.location.x += 0.5
+        with self.assertRaises(api.SetupError):
+            api.deform(obj)
+        np.testing.assert_array_equal(U.coords(obj), rest)
+
     def test_repeat_deform_uses_rest_not_previous_result(self):
         obj, empty, _f, _t = U.bar_with_handle()
         rest = U.coords(obj)

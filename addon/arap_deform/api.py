@@ -93,7 +93,7 @@ def bind(obj, scene=None):
     """
     problem = engine.Problem(obj, scene)
     solver, _ms, _cached = engine.bound_solver(obj, problem.rest64, problem.tris, problem.setup.constrained,
-                                               problem.weights)
+                                               problem.weights, problem.stiffness)
     return solver.mesh_report()
 
 

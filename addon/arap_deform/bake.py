@@ -145,7 +145,8 @@ class Baker:
             raise SetupError("'%s' has no faces: ARAP needs a surface" % obj.name)
         s = obj.arap
         self.solver = engine.native().Solver()
-        self.solver.bind(self.rest64, tris, self.setup.constrained, weights=engine.WEIGHT_NAMES[s.weights])
+        self.solver.bind(self.rest64, tris, self.setup.constrained, weights=engine.WEIGHT_NAMES[s.weights],
+                         stiffness=constraints.stiffness_of(obj))
         self.solver.threads = 1  # reductions in a fixed order: identical bakes
         self.solver.max_iterations = iterations or DEFAULT_ITERATIONS
         self.solver.tolerance = DEFAULT_TOLERANCE if tolerance is None else tolerance

@@ -128,6 +128,17 @@ def gather(obj, scene=None):
     return Setup(constrained, n_fixed, handles, warnings)
 
 
+def stiffness_of(obj):
+    """Per-vertex stiffness for the solver (None when no Stiff Group is set):
+    1 + (Stiffness - 1) * weight in the Stiff Group. Raises SetupError."""
+    s = obj.arap
+    if not s.stiff_group:
+        return None
+    if s.stiff_group not in obj.vertex_groups:
+        raise SetupError("Stiff group '%s' does not exist on '%s'" % (s.stiff_group, obj.name))
+    return 1.0 + (s.stiffness - 1.0) * meshio.group_weights(obj, s.stiff_group)
+
+
 def handle_transforms(setup, obj_matrix, empty_matrices):
     """Per handle: the object-local 4x4 map M_obj^-1 @ M_now @ M_bind^-1 @ M_obj."""
     obj_inv = np.linalg.inv(obj_matrix)

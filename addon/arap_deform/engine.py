@@ -97,14 +97,15 @@ def _digest(*arrays):
     return hash(tuple(a.tobytes() for a in arrays))
 
 
-def bound_solver(obj, rest64, tris, constrained, weights):
+def bound_solver(obj, rest64, tris, constrained, weights, stiffness=None):
     """(solver, bind_ms, cached) for these inputs; binds only when they changed."""
-    key = (obj.as_pointer(), len(rest64), _digest(rest64, tris, constrained), weights)
+    stiff = np.empty(0) if stiffness is None else stiffness
+    key = (obj.as_pointer(), len(rest64), _digest(rest64, tris, constrained, stiff), weights)
     hit = _cache.get(obj.as_pointer())
     if hit is not None and hit[0] == key:
         return hit[1], 0.0, True
     solver = native().Solver()
-    solver.bind(rest64, tris, constrained, weights=weights)
+    solver.bind(rest64, tris, constrained, weights=weights, stiffness=stiffness)
     _cache[obj.as_pointer()] = (key, solver)
     while len(_cache) > _CACHE_SIZE:
         _cache.pop(next(iter(_cache)))
@@ -140,6 +141,7 @@ class Problem:
         self.rest_constrained = self.rest64[self.setup.constrained]
         self.targets = np.empty_like(self.rest_constrained)
         self.weights = WEIGHT_NAMES[s.weights]
+        self.stiffness = constraints.stiffness_of(obj)
 
     def empty_matrices(self, scene):
         mats = []
@@ -174,7 +176,7 @@ def deform(obj, scene=None, iterations=None, tolerance=None, init=None):
     targets = problem.compute_targets(obj, scene)
     s = obj.arap
     solver, bind_ms, cached = bound_solver(obj, problem.rest64, problem.tris, problem.setup.constrained,
-                                           problem.weights)
+                                           problem.weights, problem.stiffness)
     solver.max_iterations = iterations if iterations else s.iterations
     solver.tolerance = s.tolerance if tolerance is None else tolerance
     solver.init = INIT_NAMES[init or s.init]
@@ -295,7 +297,7 @@ class LiveSession:
         s = obj.arap
         self.solver = native().Solver()
         self.solver.bind(self.problem.rest64, self.problem.tris, self.problem.setup.constrained,
-                         weights=self.problem.weights)
+                         weights=self.problem.weights, stiffness=self.problem.stiffness)
         self.bind_ms = self.solver.bind_ms
         self.solver.max_iterations = iterations or s.live_iterations
         self.solver.tolerance = s.tolerance

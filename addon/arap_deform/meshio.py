@@ -32,6 +32,17 @@ def triangles(mesh):
     return tris.reshape(-1, 3)
 
 
+def group_weights(obj, name):
+    """Per-vertex weight (float64, 0 outside) of vertex group `name`."""
+    weights = np.zeros(len(obj.data.vertices), np.float64)
+    index = obj.vertex_groups[name].index
+    for v in obj.data.vertices:
+        for g in v.groups:
+            if g.group == index:
+                weights[v.index] = g.weight
+    return weights
+
+
 def group_members(obj, names):
     """{group name: sorted int64 indices of vertices with weight > 0}."""
     index_of = {obj.vertex_groups[name].index: name for name in names if name in obj.vertex_groups}

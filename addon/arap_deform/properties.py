@@ -103,6 +103,18 @@ class ARAP_PG_settings(PropertyGroup):
         name="First Guess", description="Positions the iterations start from",
         items=INIT_ITEMS, default='NAIVE',
     )
+    stiff_group: StringProperty(
+        name="Stiff Group",
+        description="Vertex group of regions that should bend less (e.g. a torso while the limbs bend); "
+                    "its weights blend from normal (0) to Stiffness (1)",
+        default="",
+    )
+    stiffness: FloatProperty(
+        name="Stiffness",
+        description="How much more the Stiff Group resists bending than the rest of the mesh "
+                    "(it scales those vertices' share of the ARAP energy)",
+        default=10.0, min=1.0, max=1000.0, soft_max=100.0,
+    )
     acceleration: IntProperty(
         name="Acceleration",
         description="Anderson acceleration window (Peng et al. 2018): how many past iterates to extrapolate from; "

@@ -67,6 +67,9 @@ class ARAP_PT_main(bpy.types.Panel):
             col.label(text="Deform and Live run in Object Mode", icon='INFO')
 
         box = layout.box()
+        box.prop_search(s, "stiff_group", obj, "vertex_groups", text="Stiff")
+        if s.stiff_group:
+            box.prop(s, "stiffness")
         box.prop(s, "iterations")
         box.prop(s, "live_iterations")
         box.prop(s, "tolerance")

@@ -191,10 +191,16 @@ PYBIND11_MODULE(_arap_native, m) {
           "bind",
           [](arap::Solver& s, const py::array& rest, const py::array& triangles, const py::array& constrained,
              const std::string& weights, const std::string& init, int max_iterations, double tolerance, int threads,
-             int anderson_window) {
+             int anderson_window, py::object stiffness) {
             PointsView r = view_points(rest, "rest");
             arap::Triangles tri = to_triangles(triangles);
             std::vector<int> con = to_indices(constrained);
+            std::vector<double> stiff;
+            if (!stiffness.is_none()) {
+              py::array_t<double, py::array::c_style | py::array::forcecast> a(stiffness);
+              if (a.ndim() != 1) throw py::value_error("stiffness: expected a flat array, one value per vertex");
+              stiff.assign(a.data(), a.data() + a.size());
+            }
             arap::Options o;
             o.weights = arap::parse_weights(weights);
             o.init = arap::parse_initial_guess(init);
@@ -203,12 +209,13 @@ PYBIND11_MODULE(_arap_native, m) {
             o.threads = threads;
             o.anderson_window = anderson_window;
             py::gil_scoped_release release;
-            s.bind(r.map(), tri, con, o);
+            s.bind(r.map(), tri, con, o, stiff);
           },
           py::arg("rest"), py::arg("triangles"), py::arg("constrained"), py::arg("weights") = "cotan-clamped",
-          py::arg("init") = "laplacian", py::arg("max_iterations") = 10, py::arg("tolerance") = 1e-6,
-          py::arg("threads") = 1, py::arg("anderson_window") = 0,
-          "rest: #V by 3 positions; triangles: #F by 3 indices; constrained: vertex indices (no duplicates).")
+          py::arg("init") = "naive", py::arg("max_iterations") = 10, py::arg("tolerance") = 1e-6,
+          py::arg("threads") = 1, py::arg("anderson_window") = 0, py::arg("stiffness") = py::none(),
+          "rest: #V by 3 positions; triangles: #F by 3 indices; constrained: vertex indices (no duplicates);\n"
+          "stiffness: optional, one value > 0 per vertex scaling its cell's energy (default all 1).")
       .def(
           "solve",
           [](arap::Solver& s, const py::array& targets, py::object out) {
