@@ -49,6 +49,7 @@ struct Solver::Impl {
 
   Points state;      // the current solution in internal vertex order (see bound_mesh.h)
   Points positions;  // the same in input order, as returned by positions()
+  Points state_backup;
   std::vector<Eigen::Matrix3d> rotations;
   std::vector<double> cell_energy, coupled, rhs, work;
   std::vector<double> eigenvalues;  // per cell, warm start of the rotation fit
@@ -191,7 +192,9 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
                                             std::to_string(s.constrained_input[r]) + ") is not finite");
 
   SolveStats stats;
-  const Points previous = s.state;  // restored if anything below goes wrong
+  stats.energy.reserve(s.options.max_iterations);
+  stats.iteration_ms.reserve(s.options.max_iterations);
+  s.state_backup = s.state;  // same size every solve: no allocation; restored if anything below goes wrong
   try {
     auto t = Clock::now();
     InitialGuess guess = s.options.init;
@@ -227,7 +230,7 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     if (!s.state.allFinite())
       throw Error(ErrorCode::NonFinite, "the solve produced non-finite positions (the mesh was left unchanged)");
   } catch (...) {
-    s.state = previous;
+    s.state = s.state_backup;
     s.rotations_valid = false;
     throw;
   }
