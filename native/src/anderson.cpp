@@ -1,5 +1,7 @@
 #include "anderson.h"
 
+#include <algorithm>
+
 #include <Eigen/Cholesky>
 
 namespace arap {
@@ -39,12 +41,14 @@ void AndersonAccelerator::step(const double* x, const double* g, double* next) {
     out = G;
     return;
   }
-  const Eigen::MatrixXd A = gram_.topLeftCorner(stored_, stored_);
-  const Eigen::VectorXd b = delta_f_.leftCols(stored_).transpose() * f_;
+  Small A = gram_.topLeftCorner(stored_, stored_);
+  SmallVector b(stored_);
+  b.noalias() = delta_f_.leftCols(stored_).transpose() * f_;
   // A tiny ridge keeps the normal equations solvable when differences are collinear.
-  const double ridge = 1e-10 * (A.diagonal().maxCoeff() + 1e-300);
-  const Eigen::VectorXd theta = (A + ridge * Eigen::MatrixXd::Identity(stored_, stored_)).ldlt().solve(b);
-  out = G - delta_g_.leftCols(stored_) * theta;
+  A.diagonal().array() += 1e-10 * (A.diagonal().maxCoeff() + 1e-300);
+  const SmallVector theta = A.ldlt().solve(b);
+  out = G;
+  out.noalias() -= delta_g_.leftCols(stored_) * theta;
   if (!out.allFinite()) out = G;
 }
 

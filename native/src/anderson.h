@@ -24,7 +24,11 @@ class AndersonAccelerator {
   bool has_previous_ = false;
   Eigen::VectorXd previous_f_, previous_g_, f_;
   Eigen::MatrixXd delta_f_, delta_g_;  // dimension by window, used as a ring
-  Eigen::MatrixXd gram_;               // dF^T dF, updated one column at a time
+  // Small dense parts live on the stack (window <= kMaxWindow): an iteration allocates nothing.
+  static constexpr int kMaxWindow = 20;
+  using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxWindow, kMaxWindow>;
+  using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxWindow, 1>;
+  Small gram_;  // dF^T dF, updated one column at a time
 };
 
 }  // namespace arap
