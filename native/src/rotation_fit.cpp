@@ -22,16 +22,31 @@ Eigen::Matrix3d fit_rotation_svd(const Eigen::Matrix3d& A) {
 
 namespace {
 
-// Determinant of the 3x3 submatrix of the 4x4 K - lambda I without row r and column c.
-double minor3(const double M[4][4], int r, int c) {
-  int rows[3], cols[3];
-  for (int i = 0, k = 0; i < 4; ++i)
-    if (i != r) rows[k++] = i;
-  for (int i = 0, k = 0; i < 4; ++i)
-    if (i != c) cols[k++] = i;
-  auto m = [&](int i, int j) { return M[rows[i]][cols[j]]; };
-  return m(0, 0) * (m(1, 1) * m(2, 2) - m(1, 2) * m(2, 1)) - m(0, 1) * (m(1, 0) * m(2, 2) - m(1, 2) * m(2, 0)) +
-         m(0, 2) * (m(1, 0) * m(2, 1) - m(1, 1) * m(2, 0));
+// The adjugate of a 4x4 matrix from its twelve 2x2 minors (rows 0-1 and rows 2-3),
+// the same expansion as det4 below; adj(M) = det(M) inverse(M).
+void adjugate4(const double a[4][4], double adj[4][4]) {
+  const double s0 = a[0][0] * a[1][1] - a[1][0] * a[0][1], s1 = a[0][0] * a[1][2] - a[1][0] * a[0][2];
+  const double s2 = a[0][0] * a[1][3] - a[1][0] * a[0][3], s3 = a[0][1] * a[1][2] - a[1][1] * a[0][2];
+  const double s4 = a[0][1] * a[1][3] - a[1][1] * a[0][3], s5 = a[0][2] * a[1][3] - a[1][2] * a[0][3];
+  const double c5 = a[2][2] * a[3][3] - a[3][2] * a[2][3], c4 = a[2][1] * a[3][3] - a[3][1] * a[2][3];
+  const double c3 = a[2][1] * a[3][2] - a[3][1] * a[2][2], c2 = a[2][0] * a[3][3] - a[3][0] * a[2][3];
+  const double c1 = a[2][0] * a[3][2] - a[3][0] * a[2][2], c0 = a[2][0] * a[3][1] - a[3][0] * a[2][1];
+  adj[0][0] = a[1][1] * c5 - a[1][2] * c4 + a[1][3] * c3;
+  adj[0][1] = -a[0][1] * c5 + a[0][2] * c4 - a[0][3] * c3;
+  adj[0][2] = a[3][1] * s5 - a[3][2] * s4 + a[3][3] * s3;
+  adj[0][3] = -a[2][1] * s5 + a[2][2] * s4 - a[2][3] * s3;
+  adj[1][0] = -a[1][0] * c5 + a[1][2] * c2 - a[1][3] * c1;
+  adj[1][1] = a[0][0] * c5 - a[0][2] * c2 + a[0][3] * c1;
+  adj[1][2] = -a[3][0] * s5 + a[3][2] * s2 - a[3][3] * s1;
+  adj[1][3] = a[2][0] * s5 - a[2][2] * s2 + a[2][3] * s1;
+  adj[2][0] = a[1][0] * c4 - a[1][1] * c2 + a[1][3] * c0;
+  adj[2][1] = -a[0][0] * c4 + a[0][1] * c2 - a[0][3] * c0;
+  adj[2][2] = a[3][0] * s4 - a[3][1] * s2 + a[3][3] * s0;
+  adj[2][3] = -a[2][0] * s4 + a[2][1] * s2 - a[2][3] * s0;
+  adj[3][0] = -a[1][0] * c3 + a[1][1] * c1 - a[1][2] * c0;
+  adj[3][1] = a[0][0] * c3 - a[0][1] * c1 + a[0][2] * c0;
+  adj[3][2] = -a[3][0] * s3 + a[3][1] * s1 - a[3][2] * s0;
+  adj[3][3] = a[2][0] * s3 - a[2][1] * s1 + a[2][2] * s0;
 }
 
 double det4(const double M[4][4]) {
@@ -100,10 +115,12 @@ bool fit_rotation(const Eigen::Matrix3d& A, Eigen::Matrix3d& R, double* lambda_h
   double M[4][4];
   for (int i = 0; i < 4; ++i)
     for (int j = 0; j < 4; ++j) M[i][j] = K[i][j] - (i == j ? lambda : 0.0);
+  double adj[4][4];
+  adjugate4(M, adj);
   int best = 0;
   double best_value = 0;
   for (int k = 0; k < 4; ++k) {
-    const double d = std::abs(minor3(M, k, k));
+    const double d = std::abs(adj[k][k]);
     if (d > best_value) best_value = d, best = k;
   }
   // A (near) repeated top eigenvalue makes the adjugate vanish: use the SVD.
@@ -114,7 +131,7 @@ bool fit_rotation(const Eigen::Matrix3d& A, Eigen::Matrix3d& R, double* lambda_h
   }
   if (lambda_hint) *lambda_hint = lambda;
   double q[4];
-  for (int i = 0; i < 4; ++i) q[i] = (((i + best) & 1) ? -1.0 : 1.0) * minor3(M, i, best);
+  for (int i = 0; i < 4; ++i) q[i] = adj[i][best];
   const double inv = 1.0 / std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
   const double w = q[0] * inv, x = q[1] * inv, y = q[2] * inv, z = q[3] * inv;
   R << w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y),  //
