@@ -18,7 +18,6 @@ class BlockCholesky {
   double factor_ms() const { return factor_ms_; }
   // x: rows() by 3 row-major, overwritten with A^-1 x. `work` is resized once.
   void solve_in_place(double* x, std::vector<double>& work) const;
-  Eigen::Index rows() const { return n_; }
   long nonzeros() const;
 
  private:

@@ -264,27 +264,37 @@ double Solver::bind_ms() const { return impl_->bind_stats.total_ms; }
 const BindStats& Solver::bind_stats() const { return impl_->bind_stats; }
 long Solver::factor_nonzeros() const { return impl_->laplacian.nonzeros(); }
 
+namespace {
+
+// Positions given in input order, moved to internal order, with the optimal
+// rotation of every cell; returns the energy. For energy() and energy_gradient().
+double evaluate(const BoundMesh& m, const Eigen::Ref<const Points>& positions, int threads, const char* caller,
+                Points& P, std::vector<Eigen::Matrix3d>& R) {
+  if (positions.rows() != m.n)
+    throw Error(ErrorCode::InvalidInput, std::string(caller) + ": expected " + std::to_string(m.n) +
+                                             " positions, got " + std::to_string(positions.rows()));
+  to_internal(m, positions, P);
+  R.resize(m.n);
+  std::vector<double> cells(m.n);
+  return local_step(m, P.data(), R.data(), cells.data(), threads, nullptr);
+}
+
+}  // namespace
+
 double Solver::energy(const Eigen::Ref<const Points>& positions) const {
   const Impl& s = *impl_;
   if (!s.bound) throw Error(ErrorCode::NotBound, "energy() called before bind()");
-  if (positions.rows() != s.mesh.n) throw Error(ErrorCode::InvalidInput, "energy(): wrong number of positions");
   Points P;
-  to_internal(s.mesh, positions, P);
-  std::vector<Eigen::Matrix3d> R(s.mesh.n);
-  std::vector<double> cells(s.mesh.n);
-  return local_step(s.mesh, P.data(), R.data(), cells.data(), s.options.threads, nullptr);
+  std::vector<Eigen::Matrix3d> R;
+  return evaluate(s.mesh, positions, s.options.threads, "energy()", P, R);
 }
 
 Points Solver::energy_gradient(const Eigen::Ref<const Points>& positions) const {
   const Impl& s = *impl_;
   if (!s.bound) throw Error(ErrorCode::NotBound, "energy_gradient() called before bind()");
-  if (positions.rows() != s.mesh.n)
-    throw Error(ErrorCode::InvalidInput, "energy_gradient(): wrong number of positions");
   Points P;
-  to_internal(s.mesh, positions, P);
-  std::vector<Eigen::Matrix3d> R(s.mesh.n);
-  std::vector<double> cells(s.mesh.n);
-  local_step(s.mesh, P.data(), R.data(), cells.data(), s.options.threads, nullptr);
+  std::vector<Eigen::Matrix3d> R;
+  evaluate(s.mesh, positions, s.options.threads, "energy_gradient()", P, R);
   Points gradient(s.mesh.n, 3), gradient_input;
   arap::energy_gradient(s.mesh, P.data(), R.data(), gradient.data());
   to_input(s.mesh, gradient, gradient_input);

@@ -36,6 +36,21 @@ arap::Options options_with(arap::InitialGuess init, int iterations, double toler
   return o;
 }
 
+// dE/dp from energy_gradient() against central differences of energy() at a few vertices.
+void expect_gradient_matches_finite_differences(const arap::Solver& solver, const std::vector<int>& vertices) {
+  const arap::Points P = solver.positions();
+  const arap::Points gradient = solver.energy_gradient(P);
+  const double h = 1e-6;
+  for (int v : vertices)
+    for (int d = 0; d < 3; ++d) {
+      arap::Points plus = P, minus = P;
+      plus(v, d) += h;
+      minus(v, d) -= h;
+      const double numeric = (solver.energy(plus) - solver.energy(minus)) / (2 * h);
+      EXPECT_NEAR(gradient(v, d), numeric, 1e-5 * (1 + std::abs(numeric))) << "vertex " << v << " axis " << d;
+    }
+}
+
 TEST(Solver, RigidMotionOfAllConstraintsGivesTheRigidlyMovedMesh) {
   const BentTube t;
   const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, 1, 0.2).normalized()).toRotationMatrix();
@@ -104,18 +119,7 @@ TEST(Solver, GradientMatchesFiniteDifferencesOfTheEnergy) {
   arap::Solver solver;
   solver.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 3));
   solver.solve(t.targets);
-  arap::Points P = solver.positions();
-  const arap::Points gradient = solver.energy_gradient(P);
-  const double h = 1e-6;
-  for (int v : {40, 77, 150, 200}) {
-    for (int d = 0; d < 3; ++d) {
-      arap::Points plus = P, minus = P;
-      plus(v, d) += h;
-      minus(v, d) -= h;
-      const double numeric = (solver.energy(plus) - solver.energy(minus)) / (2 * h);
-      EXPECT_NEAR(gradient(v, d), numeric, 1e-5 * (1 + std::abs(numeric))) << "vertex " << v << " axis " << d;
-    }
-  }
+  expect_gradient_matches_finite_differences(solver, {40, 77, 150, 200});
 }
 
 TEST(Solver, EveryFirstGuessMeetsTheConstraintsAndConverges) {
@@ -296,17 +300,7 @@ TEST(Stiffness, GradientMatchesFiniteDifferencesAndEnergyNeverIncreases) {
   const auto stats = solver.solve(t.targets);
   for (size_t k = 1; k < stats.energy.size(); ++k)
     EXPECT_LE(stats.energy[k], stats.energy[k - 1] + 1e-12 * stats.energy[0]);
-  const arap::Points P = solver.positions();
-  const arap::Points gradient = solver.energy_gradient(P);
-  const double h = 1e-6;
-  for (int v : {60, 150, 170, 250})
-    for (int d = 0; d < 3; ++d) {
-      arap::Points plus = P, minus = P;
-      plus(v, d) += h;
-      minus(v, d) -= h;
-      const double numeric = (solver.energy(plus) - solver.energy(minus)) / (2 * h);
-      EXPECT_NEAR(gradient(v, d), numeric, 1e-5 * (1 + std::abs(numeric))) << "vertex " << v << " axis " << d;
-    }
+  expect_gradient_matches_finite_differences(solver, {60, 150, 170, 250});
 }
 
 TEST(Stiffness, AStiffRegionBendsLess) {

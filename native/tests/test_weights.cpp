@@ -79,7 +79,7 @@ TEST(Weights, NonManifoldEdgeSumsAllOppositeAngles) {
   EXPECT_NEAR(weight_of(edges, 0, 2), 0.5, 1e-12);
 }
 
-TEST(Weights, LaplacianRowsOfATubeAreFinite) {
+TEST(Weights, EveryKindGivesOneWeightPerEdgeOfATube) {
   const auto m = arap_test::tube(12, 6, 2.0);
   for (auto kind : {arap::Weights::Cotan, arap::Weights::CotanClamped, arap::Weights::Uniform}) {
     const auto edges = arap::edge_weights(m.V, m.F, kind);

@@ -29,7 +29,8 @@ struct MeshReport {
 };
 
 // A triangle is degenerate when twice its area is below this fraction of the
-// square of its longest edge (sine of its largest-angle complement ~ 1e-12).
+// square of its longest edge: its smallest angle is then below ~1e-12 radians
+// and its cotangents would overflow the weights.
 constexpr double kDegenerateRelativeArea = 1e-12;
 
 // Component id of every vertex over non-degenerate triangles (-1 for isolated
