@@ -1,15 +1,19 @@
 #!/usr/bin/env bash
-# One entry point for a fresh Debian 12 machine.
-#   bash setup.sh         install the packages, build, install the Blender add-on, run the demo
-#   bash setup.sh test    install the packages, build, run every test (C++ and Blender)
-#   bash setup.sh bench   install the benchmark's extra packages and run the benchmarks
+# One entry point for a fresh Debian machine (12 bookworm, 13 trixie, unstable).
+#   bash setup.sh               install the packages, build, install the Blender add-on, run the demo
+#   bash setup.sh test          install the packages, build, run every test (C++ and Blender)
+#   bash setup.sh test-blender  the same for the Blender suites only (the version matrix in CI)
+#   bash setup.sh bench         install the benchmark's extra packages and run the benchmarks
+#   bash setup.sh deps          only install the packages
 set -euo pipefail
 cd "$(dirname "$0")"
 mode=${1:-demo}
 BUILD=${ARAP_BUILD_DIR:-build}
 
 packages=(build-essential cmake libeigen3-dev libopenmesh-dev nlohmann-json3-dev pybind11-dev python3-dev
-          python3-numpy googletest libgtest-dev blender xvfb xauth xdotool imagemagick)
+          python3-numpy googletest libgtest-dev blender xvfb xauth xdotool imagemagick
+          # Blender's own extensions add-on imports these; some Debian releases' blender lacks them.
+          python3-requests python3-cattr)
 [ "$mode" = bench ] && packages+=(libcgal-dev python3-matplotlib)
 
 missing=()
@@ -24,12 +28,19 @@ if [ ${#missing[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
 
-cmake -S . -B "$BUILD" -DCMAKE_BUILD_TYPE=Release
+[ "$mode" = deps ] && exit 0
+
+configure=(-DCMAKE_BUILD_TYPE=Release)
+[ "$mode" = test-blender ] && configure+=(-DARAP_BUILD_BENCH=OFF)
+cmake -S . -B "$BUILD" "${configure[@]}"
 cmake --build "$BUILD" -j"$(nproc)"
 
 case "$mode" in
   test)
     ctest --test-dir "$BUILD" --output-on-failure -j1
+    ;;
+  test-blender)
+    ctest --test-dir "$BUILD" --output-on-failure -j1 -L blender
     ;;
   demo)
     "$BUILD/arap-make-mesh" bar --vertices 2000 --output "$BUILD/demo_bar.obj" \
@@ -45,7 +56,7 @@ case "$mode" in
       --addon-dir "$BUILD/addon" --sizes 10000,50000,200000 --frames 20 --output "$BUILD/results"
     ;;
   *)
-    echo "usage: bash setup.sh [test|bench]" >&2
+    echo "usage: bash setup.sh [test|test-blender|bench|deps]" >&2
     exit 2
     ;;
 esac

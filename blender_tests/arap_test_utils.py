@@ -1,8 +1,23 @@
 # Shared helpers of the Blender tests: scenes from Blender primitives only.
+import os
+
+import addon_utils
 import bmesh
 import bpy
 import numpy as np
 from mathutils import Matrix
+
+# The add-on's module name as Blender loads it: "arap_deform" (legacy add-on,
+# Blender 3.x) or "bl_ext.user_default.arap_deform" (extension, 4.2+); ctest sets it.
+ADDON_MODULE = os.environ.get("ARAP_ADDON_MODULE", "arap_deform")
+
+
+def enable_addon(handle_error=None):
+    return addon_utils.enable(ADDON_MODULE, default_set=True, handle_error=handle_error)
+
+
+def disable_addon():
+    addon_utils.disable(ADDON_MODULE, default_set=True)
 
 
 def clear_scene():

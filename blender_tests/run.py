@@ -3,16 +3,15 @@
 #   blender --background --factory-startup -noaudio --python-exit-code 1 \
 #       --python run.py -- <test file> [unittest names...]
 #
-# The add-on is found via BLENDER_USER_SCRIPTS (ctest points it at a folder
-# whose addons/arap_deform links to the staged add-on in the build tree).
+# The add-on is found via BLENDER_USER_SCRIPTS (Blender 3.x) or
+# BLENDER_USER_EXTENSIONS (4.2+): ctest points them at folders that link to
+# the staged add-on in the build tree, and ARAP_ADDON_MODULE names the module.
 # Exit code: 0 only when every test passed and at least one ran.
 import importlib.util
 import os
 import sys
 import traceback
 import unittest
-
-import addon_utils
 
 
 def main():
@@ -23,10 +22,11 @@ def main():
     path = os.path.abspath(argv[0])
     sys.path.insert(0, os.path.dirname(path))  # for arap_test_utils
 
-    mod = addon_utils.enable("arap_deform", default_set=True, handle_error=lambda exc: traceback.print_exc())
+    import arap_test_utils as U
+    mod = U.enable_addon(handle_error=lambda exc: traceback.print_exc())
     if mod is None:
-        print("FAIL: could not enable the arap_deform add-on (BLENDER_USER_SCRIPTS=%s)"
-              % os.environ.get("BLENDER_USER_SCRIPTS"))
+        print("FAIL: could not enable the add-on %s (BLENDER_USER_SCRIPTS=%s, BLENDER_USER_EXTENSIONS=%s)"
+              % (U.ADDON_MODULE, os.environ.get("BLENDER_USER_SCRIPTS"), os.environ.get("BLENDER_USER_EXTENSIONS")))
         sys.exit(1)
 
     spec = importlib.util.spec_from_file_location(os.path.splitext(os.path.basename(path))[0], path)

@@ -1,5 +1,10 @@
 # The native module: version/ABI checks at load, errors, array handling.
+import glob
+import importlib
+import os
+import shutil
 import sys
+import tempfile
 import unittest
 
 import numpy as np
@@ -38,11 +43,37 @@ class NativeBridge(unittest.TestCase):
             with self.assertRaises(engine.NativeModuleError) as cm:
                 engine.native()
             self.assertIn("Python 3.99", str(cm.exception))
-            self.assertIn("ARAP_PYTHON_EXECUTABLE", str(cm.exception))
+            self.assertIn("-DARAP_PYTHON_VERSION=%d.%d" % sys.version_info[:2], str(cm.exception))
         finally:
             mod.PYTHON_VERSION = saved
             engine._native = None
         engine.native()
+
+    def test_no_module_for_this_python_names_the_ones_shipped(self):
+        # A copy of the add-on whose only module is for another Python (3.99):
+        # the error names the Pythons it has and what to rebuild.
+        here = os.path.dirname(engine.__file__)
+        with tempfile.TemporaryDirectory() as tmp:
+            probe = os.path.join(tmp, "arap_abi_probe")
+            os.makedirs(probe)
+            for name in ("__init__.py", "engine.py", "constraints.py", "meshio.py", "blender_manifest.toml"):
+                shutil.copy(os.path.join(here, name), probe)
+            with open(os.path.join(probe, "__init__.py"), "w") as f:
+                f.write("")  # skip registration: only engine.native() is under test
+            shutil.copy(glob.glob(os.path.join(here, "_arap_native*"))[0],
+                        os.path.join(probe, "_arap_native.cpython-399-x86_64-linux-gnu.so"))
+            sys.path.insert(0, tmp)
+            try:
+                probe_engine = importlib.import_module("arap_abi_probe.engine")
+                with self.assertRaises(probe_engine.NativeModuleError) as cm:
+                    probe_engine.native()
+            finally:
+                sys.path.remove(tmp)
+                for name in [n for n in sys.modules if n.startswith("arap_abi_probe")]:
+                    del sys.modules[name]
+        msg = str(cm.exception)
+        self.assertIn("only for Python 3.99", msg)
+        self.assertIn("Rebuild the module for Python %d.%d" % sys.version_info[:2], msg)
 
     def _square(self):
         rest = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float64)

@@ -1,8 +1,9 @@
 # Enabling/disabling the add-on leaves nothing behind; operators are documented and in menus.
 import unittest
 
-import addon_utils
 import bpy
+
+import arap_test_utils as U
 
 OPS = ("add_handle_from_selection", "set_fixed_from_selection", "handle_add", "handle_remove", "deform",
        "reset", "set_rest_pose", "live", "live_apply", "live_cancel")
@@ -18,7 +19,7 @@ def arap_classes():
 
 class Registration(unittest.TestCase):
     def tearDown(self):
-        addon_utils.enable("arap_deform", default_set=True)
+        U.enable_addon()
 
     def test_enabled_state(self):
         self.assertTrue(hasattr(bpy.types.Object, "arap"))
@@ -37,7 +38,7 @@ class Registration(unittest.TestCase):
         self.assertIn("_menu_entry", [f.__name__ for f in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()])
 
     def test_disable_leaves_nothing(self):
-        addon_utils.disable("arap_deform", default_set=True)
+        U.disable_addon()
         self.assertFalse(hasattr(bpy.types.Object, "arap"))
         self.assertEqual(arap_classes(), [])
         for op in OPS:
@@ -45,12 +46,12 @@ class Registration(unittest.TestCase):
         for name in ("ARAP_PT_main", "ARAP_UL_handles", "ARAP_MT_menu", "ARAP_PG_settings", "ARAP_PG_handle"):
             self.assertFalse(hasattr(bpy.types, name), name)
         self.assertNotIn("_menu_entry", [f.__name__ for f in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()])
-        self.assertNotIn("arap_deform", bpy.context.preferences.addons)
+        self.assertNotIn(U.ADDON_MODULE, bpy.context.preferences.addons)
 
     def test_reenable_twice(self):
         for _ in range(2):
-            addon_utils.disable("arap_deform", default_set=True)
-            addon_utils.enable("arap_deform", default_set=True)
+            U.disable_addon()
+            U.enable_addon()
         self.assertTrue(hasattr(bpy.types.Object, "arap"))
         self.assertEqual(len([f for f in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()
                               if f.__name__ == "_menu_entry"]), 1)

@@ -18,21 +18,41 @@ bl_info = {
 if "bpy" in locals():
     # Script reload (F3 > Reload Scripts): reload submodules in dependency order.
     import importlib
-    for _name in ("meshio", "constraints", "engine", "api", "bake", "properties", "operators", "ui", "bake_ops"):
+    for _name in ("meshio", "constraints", "engine", "anim_compat", "api", "bake", "properties", "operators", "ui",
+                  "bake_ops"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
+import sys  # noqa: E402
+
 import bpy  # noqa: E402,F401 - its presence in locals() marks a reload
 
-from . import properties, operators, ui, bake_ops  # noqa: E402
+from . import properties, operators, ui, bake_ops, api  # noqa: E402
 
 # Order matters: bake_ops' panel is a child of ui's ARAP_PT_main.
 _modules = (properties, operators, ui, bake_ops)
+PUBLIC_NAME = "arap_deform"
+
+
+def _script_aliases():
+    """{public module name: module} that make `from arap_deform import api`
+    work in scripts when Blender 4.2+ loaded us as an extension
+    (bl_ext.<repository>.arap_deform); empty for the legacy add-on."""
+    if __name__ == PUBLIC_NAME:
+        return {}
+    prefix = __name__ + "."
+    aliases = {PUBLIC_NAME: sys.modules[__name__]}
+    for name, module in list(sys.modules.items()):
+        if name.startswith(prefix) and module is not None:
+            aliases[PUBLIC_NAME + "." + name[len(prefix):]] = module
+    return aliases
 
 
 def register():
     for mod in _modules:
         mod.register()
+    for name, module in _script_aliases().items():
+        sys.modules.setdefault(name, module)
 
 
 def unregister():
@@ -41,3 +61,6 @@ def unregister():
     engine.clear_cache()
     for mod in reversed(_modules):
         mod.unregister()
+    for name, module in _script_aliases().items():
+        if sys.modules.get(name) is module:
+            del sys.modules[name]

@@ -39,7 +39,7 @@ import time
 import bpy
 import numpy as np
 
-from . import constraints, engine, meshio
+from . import anim_compat, constraints, engine, meshio
 from .constraints import SetupError
 
 KEY_PREFIX = "ARAP_f"
@@ -309,13 +309,13 @@ def clear_bake(obj):
     mesh = obj.data
     keys = mesh.shape_keys
     if keys is not None:
-        action = keys.animation_data.action if keys.animation_data else None
-        if action is not None:
-            for fc in [fc for fc in action.fcurves if fc.data_path.startswith('key_blocks["%s' % KEY_PREFIX)]:
-                action.fcurves.remove(fc)
-            if mesh.get(PROP_ACTION) and len(action.fcurves) == 0:
-                keys.animation_data.action = None
-                if action.users == 0:
+        curves, _ = anim_compat.fcurves(keys)
+        if curves is not None:
+            for fc in [fc for fc in curves if fc.data_path.startswith('key_blocks["%s' % KEY_PREFIX)]:
+                curves.remove(fc)
+            if mesh.get(PROP_ACTION) and len(curves) == 0:
+                action = anim_compat.unassign_action(keys)
+                if action is not None and action.users == 0:
                     bpy.data.actions.remove(action)
         for kb in [kb for kb in keys.key_blocks if _is_bake_key(kb.name)]:
             obj.shape_key_remove(kb)
@@ -348,18 +348,15 @@ def _write_keys(obj, frames, positions):
     if live is not None and not live.mute:
         live.mute = True
         mesh[PROP_MUTED] = True
-    if keys.animation_data is None:
-        keys.animation_data_create()
-    if keys.animation_data.action is None:
-        keys.animation_data.action = bpy.data.actions.new("%s_ARAPBake" % obj.name)
+    curves, created = anim_compat.fcurves(keys, create=True, action_name="%s_ARAPBake" % obj.name)
+    if created:
         mesh[PROP_ACTION] = True
-    action = keys.animation_data.action
     for f, pos in zip(frames, positions):
         kb = obj.shape_key_add(name=key_name(f), from_mix=False)
         kb.relative_key = basis
         kb.data.foreach_set("co", pos.ravel())
         kb.value = 0.0
-        fc = action.fcurves.new('key_blocks["%s"].value' % kb.name)
+        fc = curves.new('key_blocks["%s"].value' % kb.name)
         fc.keyframe_points.add(3)
         fc.keyframe_points.foreach_set("co", (f - 1, 0.0, f, 1.0, f + 1, 0.0))
         for p in fc.keyframe_points:

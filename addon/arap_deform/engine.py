@@ -5,6 +5,7 @@ one-shot deform and the Live session (plain classes, testable in --background).
 
 import glob
 import os
+import re
 import sys
 import time
 
@@ -25,7 +26,14 @@ class NativeModuleError(ImportError):
 
 
 def addon_version():
-    return ".".join(str(v) for v in sys.modules[__package__].bl_info["version"])
+    """The add-on's version, from blender_manifest.toml (the one source: Blender
+    removes bl_info from extensions, and CMake checks bl_info against it)."""
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "blender_manifest.toml")
+    with open(path, encoding="utf-8") as f:
+        match = re.search(r'^version\s*=\s*"([^"]+)"', f.read(), re.MULTILINE)
+    if match is None:
+        raise NativeModuleError("%s has no version line: the add-on is damaged, reinstall it" % path)
+    return match.group(1)
 
 
 def native():
@@ -35,13 +43,20 @@ def native():
         return _native
     here = os.path.dirname(os.path.abspath(__file__))
     py = "%d.%d" % sys.version_info[:2]
-    rebuild = ("Rebuild it: cmake -S <source> -B build -DARAP_PYTHON_EXECUTABLE=<python%s> && "
-               "cmake --build build, then install build/arap_deform.zip" % py)
+    rebuild = ("Rebuild the module for Python %s on a Linux with that Python's headers: cmake -S <source> -B build "
+               "-DARAP_PYTHON_VERSION=%s && cmake --build build, then install build/arap_deform.zip (README, "
+               "'Blender versions')" % (py, py))
     try:
         from . import _arap_native as mod
     except ImportError as exc:
-        found = [os.path.basename(p) for p in glob.glob(os.path.join(here, "_arap_native*"))]
-        if found:
+        # One file per Python ABI may sit here (_arap_native.cpython-311-x86_64-linux-gnu.so, ...);
+        # Python picks the one whose tag matches its own.
+        found = sorted(os.path.basename(p) for p in glob.glob(os.path.join(here, "_arap_native*")))
+        tags = sorted(set(re.findall(r"cpython-(\d)(\d+)", " ".join(found))), key=lambda t: int(t[1]))
+        if found and sys.implementation.cache_tag.replace("-", "") not in {"cpython%s%s" % t for t in tags}:
+            msg = ("This Blender runs Python %s, but the add-on carries its native module only for Python %s "
+                   "(%s). " % (py, ", ".join("%s.%s" % t for t in tags) or "?", ", ".join(found)))
+        elif found:
             msg = ("The ARAP native module %s does not load in this Blender (Python %s, %s): %s. "
                    % (", ".join(found), py, sys.implementation.cache_tag, exc))
         else:

@@ -3,6 +3,12 @@
 # (xdotool) to move the handle empty with G while ARAP Live runs, checks the
 # mesh followed, Esc restores it exactly, and Enter + Ctrl+Z undo works.
 # Screenshots (imagemagick `import -window root`) go to <out>/*.png.
+#
+# Every wait is on state that gui_session.py reports (state.json), never a
+# fixed sleep: "tick" advances each time Blender's event loop has run, so
+# after sending input the driver waits for a few ticks, or for the effect it
+# expects. Limits are generous (a loaded 2-core machine, software OpenGL); on
+# a failure the screenshot (failure.png) and Blender's log stay in <out>.
 import argparse
 import json
 import os
@@ -43,7 +49,7 @@ class Gui:
         except (OSError, ValueError):
             return {}
 
-    def wait(self, what, pred, timeout=60.0):
+    def wait(self, what, pred, timeout=90.0):
         end = time.time() + timeout
         while time.time() < end:
             if self.proc.poll() is not None:
@@ -56,6 +62,11 @@ class Gui:
             time.sleep(0.2)
         raise Fail("timed out waiting for %s; last state: %s" % (what, json.dumps(self.state())[:2000]))
 
+    def settle(self, ticks=3, timeout=90.0):
+        """Wait until Blender's event loop has run `ticks` more times."""
+        start = self.state().get("tick", 0)
+        return self.wait("Blender to handle the input", lambda s: s.get("tick", 0) >= start + ticks, timeout)
+
     def command(self, name, arg=""):
         with open(os.path.join(self.out, name), "w") as f:
             f.write(arg)
@@ -66,22 +77,34 @@ class Gui:
     def shot(self, name):
         subprocess.run(["import", "-window", "root", os.path.join(self.out, name)], check=False)
 
-    def drag_with_g(self, centre, dx, dy):
+    def drag_with_g(self, centre, dx, dy, follows):
+        """G, move the pointer in small steps, check `follows(state)` while the
+        transform runs, then click to confirm. G is pressed again if the
+        first press was lost (the empty never moved)."""
         x, y = centre
-        self.xdo("mousemove", str(x), str(y))
-        time.sleep(0.3)
-        self.xdo("key", "g")
-        time.sleep(0.3)
-        for i in range(1, 11):  # small steps: Blender sees a continuous motion
-            self.xdo("mousemove", str(x + dx * i // 10), str(y + dy * i // 10))
-            time.sleep(0.05)
-        time.sleep(0.8)
-        s = self.state()
-        self.during_drag = s
+        before = self.state()["empty_location"]
+        for attempt in (1, 2):
+            self.xdo("mousemove", str(x), str(y))
+            self.settle()
+            self.xdo("key", "g")
+            self.settle()
+            for i in range(1, 11):  # small steps: Blender sees a continuous motion
+                self.xdo("mousemove", str(x + dx * i // 10), str(y + dy * i // 10))
+                self.settle(1)
+            try:
+                self.wait("the empty to follow the pointer (G)",
+                          lambda s: moved(s["empty_location"], before) > 0.05, timeout=30 * attempt)
+                break
+            except Fail:
+                if attempt == 2:
+                    raise
+                self.xdo("key", "Escape")  # whatever took the key, leave it
+                self.settle()
+        self.during_drag = self.wait("the mesh to follow during the drag", follows)
         self.drags += 1
         self.shot("during_drag_%d.png" % self.drags)
         self.xdo("click", "1")
-        time.sleep(1.0)
+        self.settle()
 
     def quit(self):
         if self.proc.poll() is None:
@@ -97,10 +120,10 @@ def moved(a, b):
 
 
 def run(gui):
-    s0 = gui.wait("scene set-up", lambda s: s.get("ready") and "viewport_centre" in s)
-    time.sleep(1.0)
+    s0 = gui.wait("scene set-up", lambda s: s.get("ready") and "viewport_centre" in s, timeout=300)
+    gui.settle()
     gui.xdo("key", "Escape")  # close the splash screen (Live is not running yet)
-    time.sleep(1.0)
+    gui.settle()
     # Click down the sidebar's tab column until the ARAP tab is hit (the
     # panel's appended draw hook then reports it); other tabs are harmless.
     x, top = s0["sidebar_tabs"]
@@ -108,17 +131,18 @@ def run(gui):
         if gui.state().get("panel_drawn"):
             break
         gui.xdo("mousemove", str(x), str(y), "click", "1")
-        time.sleep(0.4)
+        gui.settle(2)
     if not gui.state().get("panel_drawn"):
         raise Fail("the ARAP sidebar panel was never drawn")
     gui.shot("01_start.png")
     gui.command("cmd_live")
     s1 = gui.wait("Live running", lambda s: s.get("live_running"))
     print("Live started:", s1.get("live_invoke"), "frame ms", s1.get("frame_ms"))
-    gui.drag_with_g(s1["viewport_centre"], 70, -20)
+    gui.drag_with_g(s1["viewport_centre"], 70, -20,
+                    lambda s: moved(s["top_centroid"], s0["top_centroid"]) > 0.05)
     s2 = gui.wait("the mesh to follow the empty",
                   lambda s: moved(s["empty_location"], s0["empty_location"]) > 0.05
-                  and moved(s["top_centroid"], s0["top_centroid"]) > 0.05, timeout=20)
+                  and moved(s["top_centroid"], s0["top_centroid"]) > 0.05)
     sd = gui.during_drag
     print("during the drag (before the click): empty moved by %.3f, top centroid by %.3f"
           % (moved(sd["empty_location"], s0["empty_location"]), moved(sd["top_centroid"], s0["top_centroid"])))
@@ -133,9 +157,8 @@ def run(gui):
 
     gui.xdo("mousemove", *map(str, s1["viewport_centre"]))
     gui.xdo("key", "Escape")
-    s3 = gui.wait("Esc to cancel Live", lambda s: not s.get("live_running"), timeout=10)
-    time.sleep(0.5)
-    s3 = gui.state()
+    gui.wait("Esc to cancel Live", lambda s: not s.get("live_running"))
+    s3 = gui.settle()
     if s3["hash"] != s0["rest_hash"]:
         raise Fail("Esc did not restore the mesh bit for bit")
     print("Esc restored the mesh exactly")
@@ -144,10 +167,10 @@ def run(gui):
     # Apply with Enter, then Ctrl+Z until the empty is back: the mesh is at rest again.
     gui.command("cmd_live")
     s4 = gui.wait("Live running again", lambda s: s.get("live_running"))
-    gui.drag_with_g(s4["viewport_centre"], -60, 20)
-    gui.wait("second move", lambda s: moved(s["top_centroid"], s3["top_centroid"]) > 0.05, timeout=20)
+    gui.drag_with_g(s4["viewport_centre"], -60, 20,
+                    lambda s: moved(s["top_centroid"], s3["top_centroid"]) > 0.05)
     gui.xdo("key", "Return")
-    s5 = gui.wait("Enter to apply", lambda s: not s.get("live_running"), timeout=10)
+    s5 = gui.wait("Enter to apply", lambda s: not s.get("live_running"))
     if s5["hash"] == s0["rest_hash"]:
         raise Fail("Enter did not keep the pose")
     gui.shot("04_after_apply.png")
@@ -157,8 +180,7 @@ def run(gui):
     undos = 0
     for undos in range(1, 6):
         gui.xdo("key", "ctrl+z")
-        time.sleep(1.0)
-        s6 = gui.state()
+        s6 = gui.settle(5)
         if s6["hash"] == s0["rest_hash"]:
             break
     print("Ctrl+Z presses to reach the rest shape:", undos)
@@ -166,8 +188,9 @@ def run(gui):
         raise Fail("Ctrl+Z did not bring the mesh back to rest (empty at %s)" % s6["empty_location"])
     print("Ctrl+Z restored the rest shape")
     gui.shot("05_after_undo.png")
-    gui.command("cmd_screenshot", os.path.join(gui.out, "06_blender_screenshot.png"))
-    time.sleep(1.0)
+    shot_path = os.path.join(gui.out, "06_blender_screenshot.png")
+    gui.command("cmd_screenshot", shot_path)
+    gui.wait("Blender's own screenshot", lambda s: os.path.exists(shot_path))
     with open(os.path.join(gui.out, "blender.log")) as f:
         log = f.read()
     if "Traceback" in log:
@@ -184,8 +207,12 @@ def main():
         run(gui)
     except Fail as exc:
         gui.shot("failure.png")
-        print("GUI TEST FAILED:", exc)
         gui.quit()
+        print("GUI TEST FAILED:", exc)
+        print("Screenshot: %s; Blender's log: %s" % (os.path.join(args.out, "failure.png"),
+                                                   os.path.join(args.out, "blender.log")))
+        with open(os.path.join(args.out, "blender.log"), errors="replace") as f:
+            print("--- last lines of Blender's log ---\n" + "".join(f.readlines()[-40:]))
         sys.exit(1)
     finally:
         gui.quit()

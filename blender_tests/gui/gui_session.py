@@ -19,7 +19,9 @@ import numpy as np
 from mathutils import Matrix
 
 OUT = sys.argv[sys.argv.index("--") + 1]
-STATE = {"ready": False, "errors": []}
+# "tick" counts the state writes: the driver waits for it to advance to know
+# that Blender's event loop has run (and so handled the input sent before).
+STATE = {"ready": False, "errors": [], "tick": 0}
 
 
 def view3d():
@@ -32,7 +34,7 @@ def view3d():
 
 
 def setup():
-    addon_utils.enable("arap_deform", default_set=True)
+    addon_utils.enable(os.environ.get("ARAP_ADDON_MODULE", "arap_deform"), default_set=True)
     from arap_deform import api
     for ob in list(bpy.data.objects):
         bpy.data.objects.remove(ob)
@@ -127,6 +129,7 @@ def write_state():
         ui = next(r for r in area.regions if r.type == 'UI')
         # Screen x of the sidebar's tab column (right edge) and y of its top.
         STATE["sidebar_tabs"] = [ui.x + ui.width - 12, win.height - (ui.y + ui.height)]
+    STATE["tick"] += 1
     tmp = os.path.join(OUT, "state.json.tmp")
     with open(tmp, "w") as f:
         json.dump(STATE, f)

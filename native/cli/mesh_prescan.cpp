@@ -289,7 +289,7 @@ void check_material_library(const std::string& path, std::string name) {
 
 Expected scan_obj(const std::string& path, const std::string& data) {
   Cursor c(data);
-  Expected expected{0, 0};
+  Expected expected{0, 0, {}};
   for (long long line_no = 1; !c.at_end(); ++line_no) {
     Cursor l(c.line());
     std::string_view key = l.next();
@@ -316,13 +316,13 @@ Expected scan_stl(const std::string& path, const std::string& data) {
     unsigned long long n = 0;
     for (int i = 0; i < 4; ++i)
       n |= static_cast<unsigned long long>(static_cast<unsigned char>(data[80 + i])) << (8 * i);
-    if (84 + 50 * n == data.size()) return {-1, static_cast<long long>(n)};  // binary
+    if (84 + 50 * n == data.size()) return {-1, static_cast<long long>(n), {}};  // binary
   }
   Cursor c(data);
   if (c.next() != "solid")
     fail(path, "neither a binary STL (its size does not match its triangle count) nor an ASCII STL ('solid')");
   if (data.find("endsolid") == std::string::npos) fail(path, "truncated ASCII STL (no 'endsolid')");
-  Expected expected{-1, 0};
+  Expected expected{-1, 0, {}};
   for (std::string_view t = c.next(); !t.empty(); t = c.next()) expected.faces += t == "endfacet";
   return expected;
 }

@@ -241,7 +241,7 @@ PYBIND11_MODULE(_arap_native, m) {
             if (out.is_none()) {
               py::array_t<double> a({static_cast<py::ssize_t>(s.positions().rows()), py::ssize_t(3)});
               std::memcpy(a.mutable_data(), s.positions().data(), sizeof(double) * s.positions().size());
-              return std::move(a);
+              return py::object(std::move(a));
             }
             py::array out_arr = py::array::ensure(out);
             if (!out_arr) throw py::type_error("out: expected a numpy array");
