@@ -20,6 +20,26 @@ def disable_addon():
     addon_utils.disable(ADDON_MODULE, default_set=True)
 
 
+def run_blender_script(script, factory_startup=True, timeout=240):
+    """Run `script` in a new `blender --background` (this test's environment:
+    the same user folders, so the add-on is installed but, with
+    factory_startup, not enabled); returns its output, fails on an error."""
+    import subprocess
+    import tempfile
+    with tempfile.NamedTemporaryFile("w", suffix=".py", delete=False) as f:
+        f.write(script)
+    try:
+        cmd = [bpy.app.binary_path, "--background", "-noaudio", "--python-exit-code", "1"]
+        cmd += ["--factory-startup"] if factory_startup else []
+        proc = subprocess.run(cmd + ["--python", f.name], capture_output=True, text=True, timeout=timeout)
+    finally:
+        os.remove(f.name)
+    out = proc.stdout + proc.stderr
+    if proc.returncode != 0 or "Traceback" in out:
+        raise AssertionError("the script failed (exit %d):\n%s" % (proc.returncode, out[-3000:]))
+    return out
+
+
 def clear_scene():
     """Remove every object and mesh (the add-on stays enabled)."""
     for ob in list(bpy.data.objects):

@@ -188,6 +188,17 @@ def run(gui):
         raise Fail("Ctrl+Z did not bring the mesh back to rest (empty at %s)" % s6["empty_location"])
     print("Ctrl+Z restored the rest shape")
     gui.shot("05_after_undo.png")
+    # Deform from the keyboard: the redo panel (F9) shows the values it used, not placeholders.
+    gui.command("cmd_redo_settings")
+    gui.settle()
+    gui.xdo("mousemove", *map(str, s1["viewport_centre"]))
+    gui.xdo("key", "ctrl+alt+shift+d")
+    redo = gui.wait("Deform to run from the keyboard",
+                    lambda s: s.get("redo", {}).get("operator") == "OBJECT_OT_arap_deform")["redo"]
+    print("redo panel after Deform:", redo)
+    if (redo["operator"], redo["iterations"], redo["init"]) != ("OBJECT_OT_arap_deform", 37, "LAPLACIAN") \
+            or abs(redo["tolerance"] - 1e-5) > 1e-9:
+        raise Fail("the redo panel does not show the values Deform used: %s" % redo)
     shot_path = os.path.join(gui.out, "06_blender_screenshot.png")
     gui.command("cmd_screenshot", shot_path)
     gui.wait("Blender's own screenshot", lambda s: os.path.exists(shot_path))

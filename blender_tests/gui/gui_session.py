@@ -5,7 +5,7 @@
 # Sets up a bar (fixed bottom, handle on top driven by an empty), then talks
 # to drive_gui.py through files in <out dir>:
 #   state.json   written every 0.2 s: vertex hash, top centroid, empty location, Live state, viewport centre
-#   cmd_*        commands from the driver: cmd_live (start Live), cmd_select_empty, cmd_quit
+#   cmd_*        commands from the driver: cmd_live (start Live), cmd_redo_settings, cmd_screenshot, cmd_quit
 import hashlib
 import json
 import os
@@ -72,6 +72,10 @@ def setup():
     # The driver switches tabs with Ctrl+Tab over the sidebar; this hook,
     # appended to the add-on's panel, tells it when the ARAP panel was drawn.
     bpy.types.ARAP_PT_main.append(panel_drawn)
+    # A key for Deform (as a user's own keymap entry): operators run from input,
+    # unlike bpy.ops calls from a script, are what the redo panel (F9) shows.
+    km = bpy.context.window_manager.keyconfigs.addon.keymaps.new(name="3D View", space_type='VIEW_3D')
+    km.keymap_items.new("object.arap_deform", 'D', 'PRESS', ctrl=True, alt=True, shift=True)
     # An undo step for the set-up, so Ctrl+Z can come back to it.
     with bpy.context.temp_override(window=win, area=area, region=region):
         bpy.ops.ed.undo_push(message="ARAP test set-up")
@@ -100,6 +104,15 @@ def start_live():
         ob.select_set(False)
     empty.select_set(True)
     bpy.context.view_layer.objects.active = empty
+
+
+def report_redo_panel():
+    """What the redo panel (F9) shows: the last operator run from the UI."""
+    ops = bpy.context.window_manager.operators
+    if len(ops) and ops[-1].bl_idname == "OBJECT_OT_arap_deform":
+        p = ops[-1].properties
+        STATE["redo"] = {"operator": ops[-1].bl_idname, "iterations": p.iterations, "tolerance": p.tolerance,
+                         "init": p.init}
 
 
 def screenshot(name):
@@ -151,6 +164,12 @@ def tick():
             setup()
         if take("cmd_live"):
             start_live()
+        if take("cmd_redo_settings"):
+            obj = bpy.data.objects["Bar"]
+            obj.arap.iterations, obj.arap.tolerance, obj.arap.init = 37, 1e-5, 'LAPLACIAN'
+            bpy.context.view_layer.objects.active = obj
+        if STATE.get("ready"):
+            report_redo_panel()
         shot = take("cmd_screenshot")
         if shot:
             screenshot(shot)
