@@ -37,7 +37,7 @@ from .bake import bake_pc2, bake_shape_keys, clear_bake, read_pc2  # noqa: F401
 __all__ = ("SetupError", "SessionError", "NativeModuleError", "DeformResult", "LiveSession", "settings",
            "set_fixed", "add_handle", "remove_handle", "create_group", "deform", "bind", "set_rest_pose",
            "reset", "start_session", "rest_positions", "ArapError", "bake_shape_keys", "bake_pc2", "clear_bake",
-           "read_pc2", "last_result")
+           "read_pc2", "last_result", "set_auto")
 
 
 def __getattr__(name):
@@ -133,6 +133,17 @@ def reset(obj):
     """Put the rest shape back and capture the empties' bind poses again."""
     _registered()
     engine.reset(obj)
+
+
+def set_auto(obj, enabled=True):
+    """Auto mode on or off (obj.arap.auto): while on, the mesh is posed by its
+    handles whenever they change -- moves, keyframes and frame changes
+    (scene.frame_set) included. Off puts the rest shape back. Turning it on
+    poses at once and raises SetupError / ArapError when it cannot."""
+    _registered()
+    obj.arap.auto = enabled
+    if enabled and not obj.arap.auto:
+        raise SetupError(obj.arap.auto_status or "Auto posing could not start on '%s'" % obj.name)
 
 
 def start_session(obj, scene=None, iterations=None, write=True):

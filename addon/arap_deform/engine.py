@@ -190,6 +190,30 @@ class Problem:
         return constraints.fill_targets(self.setup, self.rest_constrained, transforms, self.targets)
 
 
+def configured_solver(problem, settings, warm=False):
+    """A solver bound to `problem` with the object's settings (`warm`: each
+    solve() starts from the last solution, the first from the cold guess)."""
+    solver = native().Solver()
+    solver.bind(problem.rest64, problem.tris, problem.setup.constrained, weights=problem.weights,
+                stiffness=problem.stiffness)
+    solver.max_iterations = settings.iterations
+    solver.tolerance = settings.tolerance
+    solver.anderson_window = settings.acceleration
+    solver.threads = settings.threads
+    if warm:
+        solver.cold_start = INIT_NAMES[settings.init]
+        solver.init = "warm"
+    else:
+        solver.init = INIT_NAMES[settings.init]
+    return solver
+
+
+def topology_counts(mesh):
+    """Vertex, edge, loop and face counts: a cheap check that the topology the
+    solver was bound to is still there."""
+    return (len(mesh.vertices), len(mesh.edges), len(mesh.loops), len(mesh.polygons))
+
+
 def sync_matrices():
     """Bring matrix_world up to date after scripts changed location/rotation
     (Blender updates it only when the depsgraph is evaluated)."""

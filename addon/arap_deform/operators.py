@@ -97,7 +97,8 @@ class ARAP_OT_add_handle_from_selection(bpy.types.Operator):
             return {'CANCELLED'}
         group = obj.vertex_groups.new(name=self.group_name)
         _assign(obj, group, indices, replace=False)
-        empty = bpy.data.objects.new("ARAP_%s_%s" % (obj.name, group.name), None)
+        # The group's name first: what tells handles apart when the list cuts names short.
+        empty = bpy.data.objects.new("%s_%s" % (group.name, obj.name), None)
         empty.empty_display_type = 'SPHERE'
         empty.empty_display_size = max(0.05, 0.1 * max(obj.dimensions))
         collection = obj.users_collection[0] if obj.users_collection else context.scene.collection

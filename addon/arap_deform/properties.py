@@ -71,8 +71,31 @@ class ARAP_PG_handle(PropertyGroup):
     )
 
 
+def _auto_changed(settings, context):
+    from . import auto  # the handlers' module (imports the native bridge)
+    obj = settings.id_data
+    if settings.auto:
+        settings.auto_status = ""
+        auto.update_scene(context.scene)
+    else:
+        auto.stop(obj)
+
+
 class ARAP_PG_settings(PropertyGroup):
     """ARAP settings of one mesh object."""
+
+    auto: BoolProperty(
+        name="Auto",
+        description="Keep the mesh posed by its handles whenever they move, animate or are scrubbed, like a "
+                    "modifier (off: the rest shape comes back)",
+        default=False,
+        update=_auto_changed,
+    )
+    auto_status: StringProperty(
+        name="Auto Status",
+        description="Why Auto posing last stopped by itself (empty when it did not)",
+        default="",
+    )
 
     fixed_group: StringProperty(
         name="Fixed Group",

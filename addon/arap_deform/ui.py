@@ -12,10 +12,9 @@ class ARAP_UL_handles(bpy.types.UIList):
     active one is edited below the list (as Blender's own vertex group list)."""
 
     def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0):
-        split = layout.split(factor=0.5)
+        split = layout.split(factor=0.45)
         split.label(text=item.group or "(no group)", icon='GROUP_VERTEX')
-        empty = item.empty.name if item.empty is not None else "(no Empty)"
-        split.label(text=empty, icon='EMPTY_AXIS')
+        split.label(text=item.empty.name if item.empty is not None else "(no Empty)")
 
 
 def panel_object(context):
@@ -75,6 +74,9 @@ class ARAP_PT_main(bpy.types.Panel):
             sub.prop(s, "stiffness")
 
         col = layout.column(align=True)
+        col.prop(s, "auto", text="Auto (follow the handles)", toggle=True, icon='AUTO')
+        if s.auto_status and not s.auto:
+            col.label(text=s.auto_status, icon='ERROR')
         if session is None:
             col.operator("object.arap_deform", text="Deform", icon='MOD_SIMPLEDEFORM')
             col.operator("object.arap_live", text="Live", icon='PLAY')
