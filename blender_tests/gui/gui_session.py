@@ -99,7 +99,11 @@ def start_live():
     with bpy.context.temp_override(window=win, area=area, region=region, active_object=obj, object=obj):
         result = bpy.ops.object.arap_live('INVOKE_DEFAULT')
     STATE["live_invoke"] = list(result)
-    # G must move the empty: make it the only selected, active object.
+    select_only_the_empty()
+
+
+def select_only_the_empty():
+    """G must move the empty: make it the only selected, active object."""
     empty = bpy.data.objects["TopEmpty"]
     for ob in bpy.context.view_layer.objects:
         ob.select_set(False)
@@ -109,13 +113,8 @@ def start_live():
 
 def auto_on():
     """Auto mode on for the bar; the Empty selected and active for G."""
-    obj = bpy.data.objects["Bar"]
-    obj.arap.auto = True
-    empty = bpy.data.objects["TopEmpty"]
-    for ob in bpy.context.view_layer.objects:
-        ob.select_set(False)
-    empty.select_set(True)
-    bpy.context.view_layer.objects.active = empty
+    bpy.data.objects["Bar"].arap.auto = True
+    select_only_the_empty()
 
 
 def animate_empty():
