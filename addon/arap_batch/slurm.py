@@ -53,16 +53,17 @@ def _directive(option, value):
     return "#SBATCH %s=%s" % (option, '"%s"' % value if re.search(r"\s", value) else value)
 
 
-def script_text(folder, report, n, files, launcher, task_options, cpus, partition=None, time_limit=None,
-                extra=()):
+def script_text(script, folder, report, n, files, launcher, task_options, cpus, partition=None, time_limit=None,
+                extra=(), merge_first=()):
     """The array job script: readable, and submittable again as it is."""
     q = shlex.quote
+    merge = " ".join(q(x) for x in list(merge_first) + [folder])
     lines = ["#!/bin/sh",
              "# arap-batch on Slurm: %d file(s) in %d task(s), written by `arap-batch --scheduler slurm`." % (files, n),
              "#",
-             "#   sbatch %s                 run every task (again)" % q(folder + ".sbatch"),
-             "#   sbatch --array=K %s       run task K again" % q(folder + ".sbatch"),
-             "#   arap-batch merge-reports %s --report %s" % (q(folder), q(report)),
+             "#   sbatch %s                 run every task (again)" % q(script),
+             "#   sbatch --array=K %s       run task K again" % q(script),
+             "#   arap-batch merge-reports %s --report %s" % (merge, q(report)),
              "#                                  one report from the tasks' reports",
              "#",
              "# Task K poses files K, K+%d, K+%d, ... of files.txt (sorted; counted from 0) in its own" % (n, 2 * n),
@@ -78,15 +79,15 @@ def script_text(folder, report, n, files, launcher, task_options, cpus, partitio
         lines.append(_directive("--partition", partition))
     if time_limit:
         lines.append(_directive("--time", time_limit))
-    lines += ["#SBATCH " + opt for opt in extra]
-    options = " ".join(q(o) for o in task_options)
+    for opt in extra:   # "--comment=a b" -> #SBATCH --comment="a b"; "-A proj" as it is
+        name, eq, value = opt.partition("=")
+        lines.append(_directive(name, value) if opt.startswith("--") and eq else "#SBATCH " + opt)
     lines += ["",
               "run=%s" % q(folder),
               'k="${SLURM_ARRAY_TASK_ID:?submit this script with sbatch}"',
-              'exec python3 %s --files-from "$run/files.txt" --shard "$k/%d" \\' % (q(launcher), n),
-              "    %s \\" % options,
-              '    --report "$run/shard-$k.json" --results-log "$run/shard-$k.jsonl"',
-              ""]
+              'exec python3 %s --files-from "$run/files.txt" --shard "$k/%d" \\' % (q(launcher), n)]
+    lines += ["    %s \\" % q(o) for o in task_options]
+    lines += ['    --report "$run/shard-$k.json" --results-log "$run/shard-$k.jsonl"', ""]
     return "\n".join(lines)
 
 
@@ -196,7 +197,7 @@ def follow(job, folder, n, progress, stop, poll=2.0, max_poll=30.0, grace=10.0):
                 gone_since = None
                 delay = min(delay * 1.5, max_poll)
                 next_poll = now + delay
-        stop.event.wait(0.5)
+        stop.event.wait(0.25 if len(pending) <= 64 else 1.0)    # fewer looks at a shared file system
     for log in logs:
         for rec in log.new_records():
             progress.file_done(rec)
@@ -218,7 +219,8 @@ def run(plan, progress_cls):
 
     plan: report (the merged report's path), inputs [sorted paths], shards, mode, run (what
     the report records), task_options (the options every task gets), launcher, cpus,
-    partition, time, sbatch_options, no_wait, rerun.
+    partition, time, sbatch_options, no_wait, rerun, merge_first (reports the run folder is
+    merged after, with --no-wait: the report a rerun folds into).
     """
     check_clients()
     script, folder = artifacts(plan.report, plan.rerun)
@@ -228,8 +230,8 @@ def run(plan, progress_cls):
                     sbatch_options=list(plan.sbatch_options), script=script)
     runfolder.prepare(folder, plan.inputs, n, plan.mode, run_info, submitted)
     with open(script, "w", encoding="utf-8") as f:
-        f.write(script_text(folder, plan.report, n, len(plan.inputs), plan.launcher, plan.task_options, plan.cpus,
-                            plan.partition, plan.time, plan.sbatch_options))
+        f.write(script_text(script, folder, plan.report, n, len(plan.inputs), plan.launcher, plan.task_options,
+                            plan.cpus, plan.partition, plan.time, plan.sbatch_options, plan.merge_first))
     os.chmod(script, 0o755)
 
     stop = Stop()
@@ -243,8 +245,9 @@ def run(plan, progress_cls):
         print("Slurm job %s: %d file(s) in %d task(s); job script %s, task logs %s/task-K.log"
               % (job, len(plan.inputs), n, script, folder), flush=True)
         if plan.no_wait:
+            sources = [shlex.quote(s) for s in plan.merge_first + [folder]]   # a rerun folds into its report
             print("Not waiting (--no-wait). Follow it with `squeue --jobs=%s`; when it has left the queue:\n"
-                  "  arap-batch merge-reports %s --report %s" % (job, shlex.quote(folder), shlex.quote(plan.report)))
+                  "  arap-batch merge-reports %s --report %s" % (job, " ".join(sources), shlex.quote(plan.report)))
             return None, "Slurm job %s" % job
         progress = progress_cls(len(plan.inputs), os.isatty(1))
         follow(job, folder, n, progress, stop)
