@@ -100,8 +100,9 @@ class SlurmBatch(unittest.TestCase):
         code_local, text_local = self.batch(src, "--output", out_local, "--jobs", 2, "--frame", 1,
                                             "--report", local_report)
         report = os.path.join(runs, "all.json")
+        results = os.path.join(runs, "results.jsonl")
         code, text = self.batch(src, "--output", out_slurm, "--scheduler", "slurm", "--shards", 2, "--frame", 1,
-                                "--report", report)
+                                "--report", report, "--results-log", results)
         self.assertEqual((code_local, code), (1, 1), text_local + text)
         self.assertIn("5 file(s): 3 ok, 2 failed", text)
         self.assertIn("failed: %s: cannot open" % os.path.join(src, "corrupt.blend"), text)
@@ -123,6 +124,8 @@ class SlurmBatch(unittest.TestCase):
         self.assertEqual([r["input"] for r in merged["files"]], sorted(by_input))
         self.assertEqual(without_ms({r["input"]: r for r in expected["files"]}), without_ms(by_input))
         self.assertEqual((merged["ok"], merged["failed"], merged["interrupted"]), (3, 2, False))
+        with open(results) as f:                                     # each file as the tasks finished it
+            self.assertEqual(sorted(json.loads(line)["input"] for line in f), sorted(by_input))
         self.assertEqual(merged["mode"], dict(expected["mode"], output_dir=out_slurm))
         self.assertEqual((merged["run"]["scheduler"], merged["run"]["shards"]), ("slurm", 2))
         self.assertEqual(set(merged["slurm_tasks"].values()) | {"COMPLETED", "FAILED"}, {"COMPLETED", "FAILED"})

@@ -214,13 +214,14 @@ def wait_gone(job, stop, timeout=300.0):
     return False
 
 
-def run(plan, progress_cls):
+def run(plan, new_progress):
     """Submit, follow and collect one sharded run; (report or None with --no-wait, how it ran).
 
     plan: report (the merged report's path), inputs [sorted paths], shards, mode, run (what
     the report records), task_options (the options every task gets), launcher, cpus,
     partition, time, sbatch_options, no_wait, rerun, merge_first (reports the run folder is
-    merged after, with --no-wait: the report a rerun folds into).
+    merged after, with --no-wait: the report a rerun folds into). new_progress(total): the
+    progress display, fed each file's record as a task finishes it.
     """
     check_clients()
     script, folder = artifacts(plan.report, plan.rerun)
@@ -249,7 +250,7 @@ def run(plan, progress_cls):
             print("Not waiting (--no-wait). Follow it with `squeue --jobs=%s`; when it has left the queue:\n"
                   "  arap-batch merge-reports %s --report %s" % (job, " ".join(sources), shlex.quote(plan.report)))
             return None, "Slurm job %s" % job
-        progress = progress_cls(len(plan.inputs), os.isatty(1))
+        progress = new_progress(len(plan.inputs))
         follow(job, folder, n, progress, stop)
         interrupted = stop.event.is_set()
         if interrupted:
