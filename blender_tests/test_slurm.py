@@ -11,6 +11,7 @@ import signal
 import subprocess
 import tempfile
 import time
+import types
 import unittest
 
 import numpy as np
@@ -83,11 +84,27 @@ class SlurmBatch(unittest.TestCase):
                 return m.group(1)
         self.fail("no job id printed:\n" + "".join(lines))
 
-    def sleepy_blender(self, flag, started):
-        """A Blender whose worker, while `flag` exists, touches `started` and sleeps on *slow* files."""
-        return T.patched_blender(self.root, "sleepy-blender-" + self._testMethodName,
-                                 "'slow' in e['input'] and os.path.exists(%r) and "
-                                 "(open(%r, 'w').close() or time.sleep(600))" % (flag, started))
+    def start_stuck_run(self, names, shards):
+        """A --scheduler slurm run over `names` whose worker sleeps on slow.blend while the returned
+        flag file exists; returns once a task is asleep there, with the process (proc), its output so
+        far (lines), the job id (job), the folders (src, out, runs), the inputs' hashes (before), the
+        report's path (report) and the flag file (flag)."""
+        src, out, runs = self.folder("in"), self.folder("out"), self.folder("runs")
+        for name in names:
+            S.make_good(os.path.join(src, name + ".blend"))
+        before = T.hashes(src)
+        flag, started = os.path.join(runs, "sleep-on-slow"), os.path.join(runs, "slow-started")
+        open(flag, "w").close()
+        blender = T.patched_blender(runs, "sleepy-blender", "'slow' in e['input'] and os.path.exists(%r) and "
+                                    "(open(%r, 'w').close() or time.sleep(600))" % (flag, started))
+        report = os.path.join(runs, "r.json")
+        proc = self.start_batch(src, "--output", out, "--scheduler", "slurm", "--shards", shards,
+                                "--blender", blender, "--report", report)
+        lines = []
+        job = self.job_id(proc, lines)
+        self.wait_for("a task to reach slow.blend", lambda: os.path.exists(started))
+        return types.SimpleNamespace(proc=proc, lines=lines, job=job, src=src, out=out, runs=runs, before=before,
+                                     report=report, flag=flag)
 
     def test_same_results_as_local_mode(self):
         src, out_local, out_slurm, runs = (self.folder(n) for n in ("in", "local", "slurm", "runs"))
@@ -174,20 +191,10 @@ class SlurmBatch(unittest.TestCase):
             self.assertEqual(mesh_bytes(os.path.join(out, name)), mesh, name)
 
     def test_cancelled_task_fails_and_rerun_completes_it(self):
-        src, out, runs = self.folder("in"), self.folder("out"), self.folder("runs")
-        for name in ("a", "b", "c", "d", "slow"):     # sorted: task 0 gets a, c, slow; task 1 gets b, d
-            S.make_good(os.path.join(src, name + ".blend"))
-        before = T.hashes(src)
-        flag, started = os.path.join(self.root, "sleep-on-slow"), os.path.join(self.root, "slow-started")
-        open(flag, "w").close()
-        report = os.path.join(runs, "r.json")
-        proc = self.start_batch(src, "--output", out, "--scheduler", "slurm", "--shards", 2,
-                                "--blender", self.sleepy_blender(flag, started), "--report", report)
-        lines = []
-        job = self.job_id(proc, lines)
-        self.wait_for("task 0 to reach slow.blend", lambda: os.path.exists(started))
+        run = self.start_stuck_run(("a", "b", "c", "d", "slow"), 2)   # task 0: a, c, slow; task 1: b, d
+        proc, job, src, out, report = run.proc, run.job, run.src, run.out, run.report
         self.assertEqual(self.cluster.client(["scancel", job + "_0"]).returncode, 0)
-        text = "".join(lines) + proc.communicate(timeout=300)[0]
+        text = "".join(run.lines) + proc.communicate(timeout=300)[0]
         self.assertEqual(proc.returncode, 1, text)
         self.assertIn("5 file(s): 4 ok, 1 failed", text)
         with open(report) as f:
@@ -197,18 +204,18 @@ class SlurmBatch(unittest.TestCase):
         self.assertIn("Slurm task %s_0 CANCELLED" % job, files["slow.blend"]["reason"])
         self.assertEqual(r["slurm_tasks"], {"0": "CANCELLED", "1": "COMPLETED"})
         self.assertEqual(sorted(os.listdir(out)), ["a.blend", "b.blend", "c.blend", "d.blend"])
-        self.assertEqual(T.hashes(src), before)
+        self.assertEqual(T.hashes(src), run.before)
         self.assertEqual(T.temp_leftovers(src, out), [])
         done = {f: os.stat(os.path.join(out, f)).st_mtime_ns for f in os.listdir(out)}
 
-        os.remove(flag)
+        os.remove(run.flag)
         code, text = self.batch("--rerun-failed", report)
         self.assertEqual(code, 0, text)
         self.assertIn("1 file(s): 1 ok, 0 failed", text)
         with open(report) as f:
             r = json.load(f)
         self.assertEqual((r["ok"], r["failed"]), (5, 0))
-        self.assertTrue(os.path.isfile(os.path.join(runs, "r.rerun1.sbatch")))
+        self.assertTrue(os.path.isfile(os.path.join(run.runs, "r.rerun1.sbatch")))
         self.assertEqual(sorted(os.listdir(out)), ["a.blend", "b.blend", "c.blend", "d.blend", "slow.blend"])
         for name, mtime in done.items():          # only the failed file was run again
             self.assertEqual(os.stat(os.path.join(out, name)).st_mtime_ns, mtime, name)
@@ -216,20 +223,11 @@ class SlurmBatch(unittest.TestCase):
         self.assertGreater(posed[:, 0].max(), 1.0)
 
     def test_ctrl_c_cancels_the_array(self):
-        src, out, runs = self.folder("in"), self.folder("out"), self.folder("runs")
-        for name in ("a", "slow"):
-            S.make_good(os.path.join(src, name + ".blend"))
-        flag, started = os.path.join(self.root, "sleep-on-slow"), os.path.join(self.root, "slow-started-2")
-        open(flag, "w").close()
-        report = os.path.join(runs, "r.json")
-        proc = self.start_batch(src, "--output", out, "--scheduler", "slurm", "--shards", 1,
-                                "--blender", self.sleepy_blender(flag, started), "--report", report)
-        lines = []
-        job = self.job_id(proc, lines)
-        self.wait_for("the task to reach slow.blend", lambda: os.path.exists(started))
+        run = self.start_stuck_run(("a", "slow"), 1)
+        proc, job, out, report = run.proc, run.job, run.out, run.report
         proc.send_signal(signal.SIGINT)
-        text = "".join(lines) + proc.communicate(timeout=300)[0]
-        os.remove(flag)
+        text = "".join(run.lines) + proc.communicate(timeout=300)[0]
+        os.remove(run.flag)
         self.assertEqual(proc.returncode, 130, text)
         self.assertIn("cancelling Slurm job %s" % job, text)
         self.assertEqual(self.cluster.client(["squeue", "--noheader", "--jobs=" + job]).stdout.strip(), "")
@@ -239,7 +237,8 @@ class SlurmBatch(unittest.TestCase):
         files = {os.path.basename(x["input"]): x["status"] for x in r["files"]}
         self.assertEqual(files, {"a.blend": "ok", "slow.blend": "interrupted"}, r["files"])
         self.assertEqual(os.listdir(out), ["a.blend"])
-        self.assertEqual(T.temp_leftovers(out), [])
+        self.assertEqual(T.hashes(run.src), run.before)
+        self.assertEqual(T.temp_leftovers(run.src, out), [])
 
 
 if __name__ == "__main__":
