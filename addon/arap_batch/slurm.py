@@ -92,8 +92,11 @@ def script_text(script, folder, report, n, files, launcher, task_options, cpus, 
 
 
 def _run(cmd, timeout=60):
+    """A Slurm client command, in its own session: a terminal's Ctrl-C reaches only the launcher
+    (which then cancels the job), never an sbatch half-way through submitting it."""
     try:
-        return subprocess.run(cmd, stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=timeout)
+        return subprocess.run(cmd, stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=timeout,
+                              start_new_session=True)
     except (OSError, subprocess.TimeoutExpired) as exc:
         return subprocess.CompletedProcess(cmd, 1, "", str(exc))
 
@@ -122,6 +125,11 @@ def _task_ids(text):
         if lo.isdigit() and (not hi or hi.isdigit()):
             out += range(int(lo), int(hi or lo) + 1)
     return out
+
+
+def task_label(job):
+    """How reasons name task K of the job: "Slurm task 812_3" (what scancel and squeue accept)."""
+    return lambda k: "Slurm task %s_%d" % (job, k)
 
 
 def queued_tasks(job):
@@ -242,7 +250,6 @@ def run(plan, new_progress):
         job = submit(script)
         run_info["job_id"] = job
         runfolder.update_run(folder, run_info)
-        label = lambda k: "Slurm task %s_%d" % (job, k)  # noqa: E731
         print("Slurm job %s: %d file(s) in %d task(s); job script %s, task logs %s/task-K.log"
               % (job, len(plan.inputs), n, script, folder), flush=True)
         if plan.no_wait:
@@ -252,17 +259,15 @@ def run(plan, new_progress):
             return None, "Slurm job %s" % job
         progress = new_progress(len(plan.inputs))
         follow(job, folder, n, progress, stop)
+        progress.close()
         interrupted = stop.event.is_set()
         if interrupted:
-            progress.close()
             print("Interrupted: cancelling Slurm job %s (scancel) and waiting for its tasks to stop "
                   "(Ctrl-C again: stop waiting)" % job, flush=True)
             cancel(job)
             wait_gone(job, stop)
-        else:
-            progress.close()
         states = final_states(job)
-        report = runfolder.collect(folder, states, label, interrupted, elapsed=time.monotonic() - t0)
+        report = runfolder.collect(folder, states, task_label(job), interrupted, elapsed=time.monotonic() - t0)
         report["slurm_tasks"] = {str(k): s for k, s in sorted(states.items())}
         return report, "Slurm job %s, %d task(s)" % (job, n)
     finally:
@@ -283,5 +288,4 @@ def collect_folder(folder):
         if queued:
             print("note: Slurm job %s still has %d task(s) in the queue; their files count as not done yet"
                   % (job, len(queued)))
-    label = (lambda k: "Slurm task %s_%d" % (job, k)) if job else None
-    return runfolder.collect(folder, states, label)
+    return runfolder.collect(folder, states, task_label(job) if job else None)
