@@ -57,6 +57,15 @@ def temp_leftovers(*folders):
     return [n for d in folders for n in os.listdir(d) if "arap-tmp" in n or ".tmp-" in n or n.endswith("@")]
 
 
+def running(pid):
+    """The process exists and is not a zombie waiting for its parent."""
+    try:
+        with open("/proc/%d/stat" % pid) as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
 def blender_env():
     """Without pyenv/virtualenv folders on PATH: Blender's Python would take their library."""
     env = dict(os.environ)
@@ -394,6 +403,29 @@ class Batch(unittest.TestCase):
         with open(report) as f:
             files = {os.path.basename(x["input"]): (x["status"], x["reason"]) for x in json.load(f)["files"]}
         self.assertEqual(files, {"a.blend": ("ok", ""), "b_slow.blend": ("interrupted", "not processed (interrupted)")})
+        self.assertEqual(temp_leftovers(out), [])
+
+    def test_workers_end_with_a_killed_launcher(self):
+        # SIGKILL to the launcher (an out-of-memory kill) cannot be handled by it: its workers,
+        # each in its own session, must end on their own instead of posing on for no one.
+        src, out = self.folder("in"), self.folder("out")
+        S.make_good(os.path.join(src, "b_slow.blend"))
+        pid_file = os.path.join(self.root, "orphan-worker.pid")
+        wrapper = patched_blender(self.root, "orphan-blender", "'b_slow' in e['input'] and (open(%r, 'w').write("
+                                  "str(os.getpid())), time.sleep(120))" % pid_file)
+        p = subprocess.Popen([PYTHON, LAUNCHER, src, "--output", out, "--jobs", "1", "--blender", wrapper],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        deadline = time.monotonic() + 120
+        while not (os.path.exists(pid_file) and os.path.getsize(pid_file)) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        with open(pid_file) as f:
+            worker = int(f.read())
+        p.kill()
+        p.wait()
+        deadline = time.monotonic() + 30
+        while running(worker) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        self.assertFalse(running(worker), "the worker outlived its launcher")
         self.assertEqual(temp_leftovers(out), [])
 
     def test_bake_shape_keys_and_pc2(self):

@@ -222,6 +222,28 @@ class SlurmBatch(unittest.TestCase):
         posed, _k, _m = T.load_object(os.path.join(out, "slow.blend"))
         self.assertGreater(posed[:, 0].max(), 1.0)
 
+    def test_task_killed_outright_keeps_what_it_finished(self):
+        # The task's launcher SIGKILLed (what an out-of-memory kill does): no report from the task;
+        # the files it finished count from its results log, the others fail and say why, and Slurm
+        # ends the task's Blender worker with it.
+        run = self.start_stuck_run(("a", "b", "slow"), 1)
+        launchers = [pid for pid, cmd in self.cluster.processes() if "--files-from" in cmd and "arap-batch" in cmd]
+        self.assertEqual(len(launchers), 1, self.cluster.processes())
+        os.kill(launchers[0], signal.SIGKILL)
+        text = "".join(run.lines) + run.proc.communicate(timeout=300)[0]
+        os.remove(run.flag)
+        self.assertEqual(run.proc.returncode, 1, text)
+        self.assertFalse(os.path.exists(os.path.join(run.runs, "r.slurm", "shard-0.json")))
+        with open(run.report) as f:
+            files = {os.path.basename(x["input"]): x for x in json.load(f)["files"]}
+        self.assertEqual((files["a.blend"]["status"], files["b.blend"]["status"]), ("ok", "ok"))
+        self.assertEqual(files["slow.blend"]["status"], "failed")
+        self.assertEqual(files["slow.blend"]["reason"], "no result from Slurm task %s_0 (FAILED)" % run.job)
+        self.assertEqual(sorted(os.listdir(run.out)), ["a.blend", "b.blend"])
+        self.assertEqual(T.hashes(run.src), run.before)
+        self.wait_for("Slurm to end the task's worker",
+                      lambda: not [p for p, cmd in self.cluster.processes() if "blender" in cmd], timeout=60)
+
     def test_ctrl_c_cancels_the_array(self):
         run = self.start_stuck_run(("a", "slow"), 1)
         proc, job, out, report = run.proc, run.job, run.out, run.report

@@ -113,25 +113,26 @@ def collect(folder, states=None, label=None, interrupted=False, elapsed=None):
     records, end = {}, submitted
     for k in range(n):
         state = states.get(k)
-        mine = {i: reports.unprocessed(i, "no result from %s%s" % (label(k), " (%s)" % state if state else ""),
-                                       "interrupted" if interrupted else "failed")
-                for i in shard(inputs, k, n)}
-        for rec in ResultsLog(results_path(folder, k)).new_records():
-            if rec.get("input") in mine:
-                mine[rec["input"]] = reports.file_record(rec)
-        if os.path.isfile(report_path(folder, k)):
-            part = reports.load(report_path(folder, k))
-            for rec in part["files"]:
-                if rec["input"] in mine:
-                    mine[rec["input"]] = reports.file_record(rec)
+        found = {rec["input"]: reports.file_record(rec) for rec in ResultsLog(results_path(folder, k)).new_records()
+                 if "input" in rec}
+        try:
+            part = reports.load(report_path(folder, k)) if os.path.isfile(report_path(folder, k)) else None
+        except reports.ReportError:
+            part = None         # unreadable: what its results log says still counts
+        if part:
+            found.update((rec["input"], reports.file_record(rec)) for rec in part["files"])
             end = max(end, reports.parse_time(part["started"]) + datetime.timedelta(seconds=part["elapsed_s"]))
-        for rec in mine.values():
-            if rec["status"] == "interrupted" and not interrupted:
-                rec["status"] = "failed"
-            if rec["status"] != "ok" and state and state not in ("COMPLETED", "FAILED") \
-                    and not rec["reason"].startswith("no result"):
-                rec["reason"] = "%s %s: %s" % (label(k), state, rec["reason"])
-        records.update(mine)
+        for inp in shard(inputs, k, n):
+            rec = found.get(inp)
+            if rec is None:     # the task left no word of this file
+                rec = reports.unprocessed(inp, "no result from %s%s" % (label(k), " (%s)" % state if state else ""),
+                                          "interrupted" if interrupted else "failed")
+            elif rec["status"] == "interrupted":    # the task was stopped before this file
+                if state:
+                    rec["reason"] = "%s %s: %s" % (label(k), state, rec["reason"])
+                if not interrupted:
+                    rec["status"] = "failed"
+            records[inp] = rec
     files = [records[i] for i in sorted(records)]
     if elapsed is None:
         elapsed = (end - submitted).total_seconds()

@@ -23,7 +23,6 @@ import time
 from . import reports, runfolder
 
 CLIENTS = ("sbatch", "squeue", "scancel", "scontrol")
-DONE_STATES = ("COMPLETED", "FAILED")   # a task that ended by itself; anything else stopped it
 
 
 class SlurmError(Exception):
