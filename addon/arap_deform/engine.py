@@ -168,7 +168,7 @@ class Problem:
 
     def compute_targets(self, obj, scene):
         transforms = constraints.handle_transforms(
-            self.setup, constraints.matrix_to_numpy(obj.matrix_world), self.empty_matrices(scene))
+            self.setup, constraints.matrix_to_numpy(obj.matrix_world), self.empty_matrices(scene), obj.name)
         return constraints.fill_targets(self.setup, self.rest_constrained, transforms, self.targets)
 
 
@@ -303,11 +303,16 @@ class LiveSession:
     """
 
     def __init__(self, obj, scene=None, iterations=None, write=True):
+        constraints.check_object(obj)
+        if session_for(obj) is not None:
+            # A second session would take the first one's pose as its rest shape.
+            raise SetupError("'%s' is already being posed by a Live session: apply or cancel it first" % obj.name)
         self.obj = obj
         self.scene = scene
         sync_matrices()
         self.problem = Problem(obj, scene)
         self.n_vertices = len(obj.data.vertices)
+        self.topology = meshio.Topology(obj.data)
         self.snapshot = meshio.Snapshot(obj)
         s = obj.arap
         self.solver = native().Solver()
@@ -348,6 +353,9 @@ class LiveSession:
         if n != self.n_vertices:
             raise SessionError("The mesh's vertex count changed (%d -> %d): Live stopped"
                                % (self.n_vertices, n), 'TOPOLOGY')
+        if not self.topology.unchanged(obj.data):
+            raise SessionError("The mesh's faces changed (same vertex count, new connectivity): Live stopped",
+                               'TOPOLOGY')
         if mode != 'OBJECT':
             raise SessionError("'%s' left Object Mode: Live stopped" % obj.name, 'MODE')
 
@@ -356,6 +364,7 @@ class LiveSession:
         object did not move and the last solve had converged."""
         self.check()
         t0 = time.perf_counter()
+        sync_matrices()  # scripts move empties without a depsgraph update; cheap when nothing changed
         try:
             mats = self.problem.empty_matrices(self.scene)
         except SetupError as exc:
@@ -365,7 +374,7 @@ class LiveSession:
         if not force and self.converged and self._pose is not None and np.array_equal(pose, self._pose):
             return None
         self._pose = pose
-        transforms = constraints.handle_transforms(self.problem.setup, obj_matrix, mats)
+        transforms = constraints.handle_transforms(self.problem.setup, obj_matrix, mats, self.obj.name)
         targets = constraints.fill_targets(self.problem.setup, self.problem.rest_constrained, transforms,
                                            self.problem.targets)
         t1 = time.perf_counter()

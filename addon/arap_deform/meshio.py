@@ -32,6 +32,32 @@ def triangles(mesh):
     return tris.reshape(-1, 3)
 
 
+class Topology:
+    """The mesh's connectivity (each face's vertex indices) when created;
+    unchanged() tells whether it still is, e.g. after a script re-made the
+    faces of a mesh with the same vertex count."""
+
+    def __init__(self, mesh):
+        self.loops = self._read(mesh.loops, "vertex_index")
+        self.faces = self._read(mesh.polygons, "loop_total")
+        self._loops_now = np.empty_like(self.loops)
+        self._faces_now = np.empty_like(self.faces)
+
+    @staticmethod
+    def _read(collection, attribute, out=None):
+        if out is None or len(out) != len(collection):
+            out = np.empty(len(collection), np.int32)
+        collection.foreach_get(attribute, out)
+        return out
+
+    def unchanged(self, mesh):
+        if len(mesh.loops) != len(self.loops) or len(mesh.polygons) != len(self.faces):
+            return False
+        if not np.array_equal(self._read(mesh.loops, "vertex_index", self._loops_now), self.loops):
+            return False
+        return np.array_equal(self._read(mesh.polygons, "loop_total", self._faces_now), self.faces)
+
+
 def group_weights(obj, name):
     """Per-vertex weight (float64, 0 outside) of vertex group `name`."""
     weights = np.zeros(len(obj.data.vertices), np.float64)

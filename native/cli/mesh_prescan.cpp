@@ -1,6 +1,7 @@
 #include "mesh_prescan.h"
 
 #include <cctype>
+#include <climits>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -366,6 +367,21 @@ void check_material_library(const std::string& path, std::string name) {
   }
 }
 
+// One vertex of an OBJ face: v, v/vt, v//vn or v/vt/vn, v a non-zero
+// integer (negative counts back from the last vertex). OpenMesh 9.0's OBJ
+// reader aborts on an assertion when a face token starts with '/'.
+bool valid_obj_face_vertex(std::string_view t) {
+  const size_t slash = t.find('/');
+  const std::string_view v = t.substr(0, slash);
+  if (v.empty() || v == "0" || v == "-0" || !parse_integer(v, INT_MIN + 1LL, INT_MAX)) return false;
+  if (slash == std::string_view::npos) return true;
+  std::string_view rest = t.substr(slash + 1);
+  const size_t second = rest.find('/');
+  for (std::string_view part : {rest.substr(0, second), second == std::string_view::npos ? "" : rest.substr(second + 1)})
+    if (!part.empty() && !parse_integer(part, INT_MIN + 1LL, INT_MAX)) return false;
+  return second == std::string_view::npos || rest.substr(second + 1).find('/') == std::string_view::npos;
+}
+
 Expected scan_obj(const std::string& path, const std::string& data) {
   Cursor c(data);
   Expected expected{0, 0, {}, false, {}};
@@ -383,6 +399,10 @@ Expected scan_obj(const std::string& path, const std::string& data) {
       }
       ++expected.vertices;
     } else if (key == "f") {
+      for (std::string_view t = l.next(); !t.empty() && t[0] != '#'; t = l.next())
+        if (!valid_obj_face_vertex(t))
+          fail(path, "line " + std::to_string(line_no) + ": face vertex " + shown(t) +
+                         " is not v, v/vt, v//vn or v/vt/vn with integer indices");
       ++expected.faces;
     } else if (key == "mtllib") {
       check_material_library(path, std::string(l.line()));

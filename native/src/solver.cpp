@@ -299,7 +299,7 @@ double Solver::energy(const Eigen::Ref<const Points>& positions) const {
   if (!s.bound) throw Error(ErrorCode::NotBound, "energy() called before bind()");
   Points P;
   std::vector<Eigen::Matrix3d> R;
-  return evaluate(s.mesh, s.unit, positions, s.options.threads, "energy()", P, R) * s.unit * s.unit;
+  return energy_to_user_units(evaluate(s.mesh, s.unit, positions, s.options.threads, "energy()", P, R), s.unit);
 }
 
 Points Solver::energy_gradient(const Eigen::Ref<const Points>& positions) const {

@@ -10,14 +10,18 @@ double unit_scale_of(const Eigen::Ref<const Points>& rest) {
   if (largest == 0.0) return 1.0;
   int exponent = 0;
   std::frexp(largest, &exponent);  // largest = f * 2^exponent, f in [0.5, 1)
-  return std::ldexp(1.0, exponent);
+  return std::ldexp(1.0, exponent - 1);  // not 2^exponent: 2^1024 is not a double
+}
+
+double energy_to_user_units(double energy, double unit) {
+  // Two factors of `unit`, each exact; a zero energy stays zero where unit^2 overflows (not 0 * inf = NaN).
+  return energy == 0.0 ? 0.0 : energy * unit * unit;
 }
 
 void energies_to_user_units(SolveStats& stats, double unit) {
   if (unit == 1.0) return;
-  const double factor = unit * unit;
-  stats.initial_energy *= factor;
-  for (double& e : stats.energy) e *= factor;
+  stats.initial_energy = energy_to_user_units(stats.initial_energy, unit);
+  for (double& e : stats.energy) e = energy_to_user_units(e, unit);
 }
 
 }  // namespace arap

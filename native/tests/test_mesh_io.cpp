@@ -226,6 +226,10 @@ std::vector<Hostile> hostile_files() {
        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
        "property double z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n" +
            doubles({0, 0, 0, 1e39, 0, 0, 0, 1, 0}) + "\x03" + le32(0) + le32(1) + le32(2)},
+      // Found by fuzz_mesh_read: OpenMesh's OBJ reader aborts (assertion) on a face token starting with '/'.
+      {"face_slash_first.obj", "v 0 0 0\nv 1 0 0\nv 1 2 0\nf /1/1 2/1/1 3/1/1\n"},
+      {"face_fraction.obj", "v 0 0 0\nv 1 0 0\nv 1 2 0\nf 1.5 2 3\n"},
+      {"face_zero.obj", "v 0 0 0\nv 1 0 0\nv 1 2 0\nf 0 1 2\n"},
       {"coordinate_1e39.obj", "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n"},
       {"coordinate_1e39.stl",
        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1e39 0 0\nvertex 0 1 0\n"
@@ -270,6 +274,12 @@ TEST_F(MeshIo, OffCommentsAndTheFullDoubleRangeAreRead) {
   EXPECT_EQ(m.polygons, (std::vector<std::vector<int>>{{0, 1, 2}, {0, 2, 3}}));
   const PolygonMesh h = arap::io::read_mesh(write("header.off", "COFF 3 1 0\n0 0 0 255 0 0\n1 0 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n"));
   EXPECT_EQ(h.polygons, (std::vector<std::vector<int>>{{0, 1, 2}}));
+}
+
+TEST_F(MeshIo, ObjFaceVertexFormsAreRead) {
+  const PolygonMesh m = arap::io::read_mesh(write(
+      "forms.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1/1 2//1 3/1 # c\nf -4 -2 -1\n"));
+  EXPECT_EQ(m.polygons, (std::vector<std::vector<int>>{{0, 1, 2}, {0, 2, 3}}));
 }
 
 TEST_F(MeshIo, MissingFileAndDirectoryAreErrors) {

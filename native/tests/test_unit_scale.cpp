@@ -55,6 +55,8 @@ TEST(UnitScale, EveryFiniteScaleGivesTheSameShape) {
       SCOPED_TRACE("scale " + std::to_string(scale) + ", anderson " + std::to_string(anderson));
       const Solved s = solve_at(scale, anderson);
       ASSERT_TRUE(s.positions.allFinite());
+      EXPECT_FALSE(std::isnan(s.stats.initial_energy));  // +inf where scale^2 overflows, never NaN
+      EXPECT_FALSE(std::isnan(s.stats.energy.back()));
       // Same shape to 1e-9 of the tube's size (height 5). Anderson's extrapolation
       // amplifies rounding, so where it stops moves by up to ~1e-8: a looser bound.
       const double bound = anderson ? 1e-6 : 1e-9;
