@@ -17,7 +17,7 @@ namespace arap {
 // 1 when `rest` is empty, all zero, or not finite (bind() refuses it then).
 double unit_scale_of(const Eigen::Ref<const Points>& rest);
 
-// An energy from internal units to the caller's (times unit^2): +inf when
+// An energy from internal units to the caller's (times unit^2): +-inf when
 // that exceeds the double range (meshes larger than ~1e154), never NaN.
 double energy_to_user_units(double energy, double unit);
 void energies_to_user_units(SolveStats& stats, double unit);
