@@ -3,6 +3,7 @@
 # leaves the mesh (coordinates, shape keys, attributes) exactly as it was.
 import os
 import tempfile
+import time
 import unittest
 
 import bmesh
@@ -300,10 +301,24 @@ class BlenderSetups(unittest.TestCase):
         bm.to_mesh(self.obj.data)
         bm.free()
         self.assertEqual(len(self.obj.data.vertices), n)
+        # Applying compares the faces in full; a step does within TOPOLOGY_CHECK_S.
+        with self.assertRaises(engine.SessionError) as cm:
+            s.finish()
+        self.assertEqual(cm.exception.kind, 'TOPOLOGY')
+        self.assertIn("faces changed", str(cm.exception))
+        self.assertIsNone(engine.session_for(self.obj))
+        self.assertNotIn("arap_rest", self.obj.data.attributes)
+        s = api.start_session(self.obj, bpy.context.scene)
+        bm = bmesh.new()
+        bm.from_mesh(self.obj.data)
+        bm.faces.ensure_lookup_table()
+        bm.faces[3].normal_flip()
+        bm.to_mesh(self.obj.data)
+        bm.free()
+        time.sleep(engine.TOPOLOGY_CHECK_S)
         with self.assertRaises(engine.SessionError) as cm:
             s.step()
         self.assertEqual(cm.exception.kind, 'TOPOLOGY')
-        self.assertIn("faces changed", str(cm.exception))
         engine.stop_session(s)
 
     def test_linked_library_mesh_is_refused_and_untouched(self):

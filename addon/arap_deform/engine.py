@@ -294,6 +294,9 @@ def user_error(exc):
 
 _sessions = set()
 
+# How often a Live session compares the faces in full (see meshio.Topology).
+TOPOLOGY_CHECK_S = 1.0
+
 
 class LiveSession:
     """Bind once, then step(): read empties, solve warm-started, write.
@@ -313,6 +316,7 @@ class LiveSession:
         self.problem = Problem(obj, scene)
         self.n_vertices = len(obj.data.vertices)
         self.topology = meshio.Topology(obj.data)
+        self._next_topology_check = time.monotonic() + TOPOLOGY_CHECK_S
         self.snapshot = meshio.Snapshot(obj)
         s = obj.arap
         self.solver = native().Solver()
@@ -342,8 +346,10 @@ class LiveSession:
             self.output.ensure()
         _sessions.add(self)
 
-    def check(self):
-        """Raise SessionError when the object can no longer be posed."""
+    def check(self, full=False):
+        """Raise SessionError when the object can no longer be posed. The
+        faces are compared in full at most every TOPOLOGY_CHECK_S seconds (or
+        with `full`); element counts every time."""
         try:
             obj = self.obj
             n = len(obj.data.vertices)
@@ -353,9 +359,13 @@ class LiveSession:
         if n != self.n_vertices:
             raise SessionError("The mesh's vertex count changed (%d -> %d): Live stopped"
                                % (self.n_vertices, n), 'TOPOLOGY')
-        if not self.topology.unchanged(obj.data):
+        now = time.monotonic()
+        full = full or now >= self._next_topology_check
+        if not (self.topology.unchanged(obj.data) if full else self.topology.counts_match(obj.data)):
             raise SessionError("The mesh's faces changed (same vertex count, new connectivity): Live stopped",
                                'TOPOLOGY')
+        if full:
+            self._next_topology_check = now + TOPOLOGY_CHECK_S
         if mode != 'OBJECT':
             raise SessionError("'%s' left Object Mode: Live stopped" % obj.name, 'MODE')
 
@@ -400,8 +410,14 @@ class LiveSession:
             self.snapshot.restore()
 
     def finish(self):
-        """Keep the current result."""
+        """Keep the current result. Raises SessionError (and stops without
+        keeping anything more) when the faces changed since the last check."""
         if self.active:
+            try:
+                self.check(full=True)
+            except SessionError:
+                stop_session(self)
+                raise
             self.active = False
             _sessions.discard(self)
             if self.problem.output == 'MESH' and not self.snapshot.had_rest:

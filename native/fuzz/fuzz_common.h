@@ -11,10 +11,12 @@
 
 namespace arap_fuzz {
 
-// The file `name` in a folder of this process's own, rewritten with `bytes`.
+// The file `name` in a folder of this process's own ($ARAP_FUZZ_SCRATCH, else
+// /tmp/arap-fuzz-PID), rewritten with `bytes`.
 inline std::string scratch_file(const std::string& name, const uint8_t* bytes, size_t size) {
   static const std::string dir = [] {
-    std::string d = "/tmp/arap-fuzz-" + std::to_string(::getpid());
+    const char* given = std::getenv("ARAP_FUZZ_SCRATCH");
+    std::string d = given ? given : "/tmp/arap-fuzz-" + std::to_string(::getpid());
     std::system(("mkdir -p '" + d + "'").c_str());
     return d;
   }();

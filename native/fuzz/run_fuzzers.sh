@@ -18,7 +18,7 @@ for target in mesh_read scenario solve; do
   mkdir -p "$work/$target/corpus" "$work/$target/artifacts"
   cp "$here/corpus/$target/"* "$work/$target/corpus/"
   echo "== fuzz_$target for ${seconds} s"
-  if ! "$exe" "$work/$target/corpus" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+  if ! ARAP_FUZZ_SCRATCH="$work/$target/scratch" "$exe" "$work/$target/corpus" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
       -max_len=4096 -print_final_stats=1 -artifact_prefix="$work/$target/artifacts/" \
       >"$work/$target/log.txt" 2>&1; then
     status=1

@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 
 #include <cstdint>
+#include <cstdio>
 #include <map>
 #include <string>
 #include <vector>
@@ -180,6 +181,7 @@ TEST_F(HostileCatalogue, EveryCaseExitsTwoWritesNothingAndTouchesNoInput) {
   timeout_s_ = 20;
   const std::vector<Case> cases = catalogue();
   EXPECT_GE(cases.size(), 60u);
+  std::printf("hostile catalogue: %zu cases\n", cases.size());
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
     fs::remove_all(dir_);
