@@ -371,15 +371,17 @@ void check_material_library(const std::string& path, std::string name) {
 // integer (negative counts back from the last vertex). OpenMesh 9.0's OBJ
 // reader aborts on an assertion when a face token starts with '/'.
 bool valid_obj_face_vertex(std::string_view t) {
-  const size_t slash = t.find('/');
-  const std::string_view v = t.substr(0, slash);
-  if (v.empty() || v == "0" || v == "-0" || !parse_integer(v, INT_MIN + 1LL, INT_MAX)) return false;
-  if (slash == std::string_view::npos) return true;
-  std::string_view rest = t.substr(slash + 1);
-  const size_t second = rest.find('/');
-  for (std::string_view part : {rest.substr(0, second), second == std::string_view::npos ? "" : rest.substr(second + 1)})
+  // Up to three '/'-separated fields; the first required and non-zero, the others integers or empty.
+  for (int field = 0; field < 3; ++field) {
+    const size_t slash = t.find('/');
+    const std::string_view part = t.substr(0, slash);
+    const bool required = field == 0;
+    if (required && (part.empty() || part == "0" || part == "-0")) return false;
     if (!part.empty() && !parse_integer(part, INT_MIN + 1LL, INT_MAX)) return false;
-  return second == std::string_view::npos || rest.substr(second + 1).find('/') == std::string_view::npos;
+    if (slash == std::string_view::npos) return true;
+    t.remove_prefix(slash + 1);
+  }
+  return false;  // a fourth field
 }
 
 Expected scan_obj(const std::string& path, const std::string& data) {
@@ -394,7 +396,8 @@ Expected scan_obj(const std::string& path, const std::string& data) {
         double x;
         if (!parse_finite(t, x))
           fail(path, "line " + std::to_string(line_no) + ": vertex coordinate " + shown(t) + " is not a finite number");
-        if (!fits_float(x)) fail(path, "line " + std::to_string(line_no) + ": vertex coordinate " + shown(t) + kBeyondFloat);
+        if (!fits_float(x))
+          fail(path, "line " + std::to_string(line_no) + ": vertex coordinate " + shown(t) + kBeyondFloat);
         expected.coordinates.push_back(x);
       }
       ++expected.vertices;

@@ -13,10 +13,14 @@ namespace {
 
 const char* format_of(uint8_t selector) {
   switch (selector) {
-    case 'o': return "off";
-    case 'b': return "obj";
-    case 'p': return "ply";
-    case 's': return "stl";
+    case 'o':
+      return "off";
+    case 'b':
+      return "obj";
+    case 'p':
+      return "ply";
+    case 's':
+      return "stl";
     default: {
       static const char* const formats[] = {"off", "obj", "ply", "stl"};
       return formats[selector % 4];

@@ -17,11 +17,16 @@ namespace {
 
 double coordinate(FuzzedDataProvider& in, int exponent) {
   switch (in.ConsumeIntegralInRange<int>(0, 40)) {
-    case 0: return std::numeric_limits<double>::quiet_NaN();
-    case 1: return std::numeric_limits<double>::infinity();
-    case 2: return 1e308;
-    case 3: return in.ConsumeFloatingPoint<double>();
-    default: return std::ldexp(in.ConsumeIntegralInRange<int>(-512, 512) / 256.0, exponent);
+    case 0:
+      return std::numeric_limits<double>::quiet_NaN();
+    case 1:
+      return std::numeric_limits<double>::infinity();
+    case 2:
+      return 1e308;
+    case 3:
+      return in.ConsumeFloatingPoint<double>();
+    default:
+      return std::ldexp(in.ConsumeIntegralInRange<int>(-512, 512) / 256.0, exponent);
   }
 }
 
@@ -33,8 +38,7 @@ void points(FuzzedDataProvider& in, arap::Points& p, int exponent) {
 // targets beyond ~1e150 they may overflow to +-inf (raw cotangent weights make
 // energies negative), which is documented; never NaN, and finite below that.
 void check_energy(double e, bool may_overflow, const char* what) {
-  if (std::isnan(e) || (!may_overflow && !std::isfinite(e)))
-    arap_fuzz::broken(what);
+  if (std::isnan(e) || (!may_overflow && !std::isfinite(e))) arap_fuzz::broken(what);
 }
 
 void check_finite(const arap::Solver& solver, const arap::SolveStats& stats, bool may_overflow) {

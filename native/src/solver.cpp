@@ -209,7 +209,8 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     if (guess == InitialGuess::WarmStart && !s.has_solution) guess = s.options.cold_start;
     // A warm start keeps the rotations of the last solution for its first global step.
     // (Not with no iteration to run: the returned energy must be that of the returned positions.)
-    const bool reuse_rotations = guess == InitialGuess::WarmStart && s.rotations_valid && s.options.max_iterations > 0;
+    const bool reuse_rotations =
+        guess == InitialGuess::WarmStart && s.rotations_valid && s.options.max_iterations > 0;
     // A cold start forgets every hint of the last solve: same input, same output bit for bit.
     if (guess != InitialGuess::WarmStart) std::fill(s.eigenvalues.begin(), s.eigenvalues.end(), 0.0);
     s.apply_targets(s.targets, s.state);
@@ -238,7 +239,8 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     }
     s.last_energy = stats.energy.empty() ? stats.initial_energy : stats.energy.back();
     if (!s.state.allFinite() || !std::isfinite(s.last_energy))
-      throw Error(ErrorCode::NonFinite, "the solve produced non-finite positions or energy (the mesh was left unchanged)");
+      throw Error(ErrorCode::NonFinite,
+                  "the solve produced non-finite positions or energy (the mesh was left unchanged)");
   } catch (...) {
     s.state = s.state_backup;
     s.rotations_valid = false;
@@ -285,7 +287,8 @@ double evaluate(const BoundMesh& m, double unit, const Eigen::Ref<const Points>&
   if (positions.rows() != m.n)
     throw Error(ErrorCode::InvalidInput, std::string(caller) + ": expected " + std::to_string(m.n) +
                                              " positions, got " + std::to_string(positions.rows()));
-  if (!positions.allFinite()) throw Error(ErrorCode::NonFinite, std::string(caller) + ": positions contain NaN or Inf");
+  if (!positions.allFinite())
+    throw Error(ErrorCode::NonFinite, std::string(caller) + ": positions contain NaN or Inf");
   to_internal(m, positions / unit, P);
   R.resize(m.n);
   std::vector<double> cells(m.n);

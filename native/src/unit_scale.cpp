@@ -9,7 +9,7 @@ double unit_scale_of(const Eigen::Ref<const Points>& rest) {
   const double largest = rest.cwiseAbs().maxCoeff();
   if (largest == 0.0) return 1.0;
   int exponent = 0;
-  std::frexp(largest, &exponent);  // largest = f * 2^exponent, f in [0.5, 1)
+  std::frexp(largest, &exponent);        // largest = f * 2^exponent, f in [0.5, 1)
   return std::ldexp(1.0, exponent - 1);  // not 2^exponent: 2^1024 is not a double
 }
 

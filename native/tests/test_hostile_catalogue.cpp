@@ -32,8 +32,10 @@ const std::string kIndices = " --fixed f.txt --handle h.txt --translate 0,0,1";
 std::string ply(const std::string& format, const std::string& vertex_type, const std::string& body,
                 const std::string& count = "3") {
   return "ply\nformat " + format + "\nelement vertex " + count + "\nproperty " + vertex_type + " x\nproperty " +
-         vertex_type + " y\nproperty " + vertex_type + " z\nelement face 1\nproperty list uchar int vertex_indices\n"
-         "end_header\n" + body;
+         vertex_type + " y\nproperty " + vertex_type +
+         " z\nelement face 1\nproperty list uchar int vertex_indices\n"
+         "end_header\n" +
+         body;
 }
 
 std::string stl(const std::string& second_vertex) {
@@ -67,8 +69,8 @@ std::vector<Case> catalogue() {
   mesh("only_comments.off", "# OFF\n# 3 1 0\n");
   // PLY: every header number, then the body's numbers as OpenMesh parses them.
   const std::string ply_body = "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
-  for (const std::string version : {"ascii 1e40", "ascii 1e300", "ascii nan", "ascii -1", "ascii 2.0", "ascii x1.0",
-                                    "binary_middle_endian 1.0"})
+  for (const std::string version :
+       {"ascii 1e40", "ascii 1e300", "ascii nan", "ascii -1", "ascii 2.0", "ascii x1.0", "binary_middle_endian 1.0"})
     mesh("header_" + std::to_string(cases.size()) + ".ply", ply(version, "float", ply_body));
   for (const std::string count : {"1000000000000", "999999999999999999", "-3", "3e0", "4294967296"})
     mesh("element_count_" + std::to_string(cases.size()) + ".ply", ply("ascii 1.0", "float", ply_body, count));
@@ -77,7 +79,8 @@ std::vector<Case> catalogue() {
     mesh("ply_coordinate_" + std::to_string(cases.size()) + ".ply",
          ply("ascii 1.0", "double", "0 0 0\n" + x + " 0 0\n0 1 0\n3 0 1 2\n"));
   for (const std::string face : {"3 0 1.5 2", "3 0 1 99999999999", "300 0 1 2", "-3 0 1 2", "3 0 1"})
-    mesh("ply_face_" + std::to_string(cases.size()) + ".ply", ply("ascii 1.0", "float", "0 0 0\n1 0 0\n0 1 0\n" + face));
+    mesh("ply_face_" + std::to_string(cases.size()) + ".ply",
+         ply("ascii 1.0", "float", "0 0 0\n1 0 0\n0 1 0\n" + face));
   {
     const double big[9] = {0, 0, 0, 1e39, 0, 0, 0, 1, 0};
     std::string body(reinterpret_cast<const char*>(big), sizeof(big));
@@ -100,7 +103,8 @@ std::vector<Case> catalogue() {
   mesh("stl_binary_count.stl", std::string(80, 's') + std::string("\xff\xff\xff\xff", 4) + std::string(50, '\0'));
   mesh("unknown.xyz", "0 0 0\n");
   // Paths that are not regular files.
-  cases.push_back({"mesh is a directory", {{"dir.off/keep", ""}, {"f.txt", "0"}, {"h.txt", "2"}}, "dir.off" + kIndices});
+  cases.push_back(
+      {"mesh is a directory", {{"dir.off/keep", ""}, {"f.txt", "0"}, {"h.txt", "2"}}, "dir.off" + kIndices});
   cases.push_back({"mesh is /dev/zero", {{"f.txt", "0"}, {"h.txt", "2"}}, "/dev/zero" + kIndices});
 
   // Scenarios: deep nesting in every field, numbers that overflow, wrong types, bad paths.
@@ -114,10 +118,10 @@ std::vector<Case> catalogue() {
   scenario("deep unknown key", R"({"mesh": "m.off", "fixed": [0], "extra": )" + nested(deep) + "}");
   scenario("deep handles", R"({"mesh": "m.off", "fixed": [0], "handles": )" + nested(deep) + "}");
   scenario("deep vertices", R"({"mesh": "m.off", "handles": [{"vertices": )" + nested(deep) + "}]}");
-  scenario("deep matrix", R"({"mesh": "m.off", "fixed": [0], "handles": [{"vertices": [1], "matrix": )" +
-                              nested(deep) + "}]}");
-  scenario("deep translate", R"({"mesh": "m.off", "fixed": [0], "handles": [{"vertices": [1], "translate": )" +
-                                 nested(deep) + "}]}");
+  scenario("deep matrix",
+           R"({"mesh": "m.off", "fixed": [0], "handles": [{"vertices": [1], "matrix": )" + nested(deep) + "}]}");
+  scenario("deep translate",
+           R"({"mesh": "m.off", "fixed": [0], "handles": [{"vertices": [1], "translate": )" + nested(deep) + "}]}");
   scenario("deep objects", std::string(deep, '{').replace(0, 1, "{\"a\":") + "}");
   {
     std::string objects;
@@ -151,7 +155,8 @@ std::vector<Case> catalogue() {
 
   // Arguments.
   auto arg = [&](const std::string& extra) {
-    cases.push_back({"argument" + extra, {{"m.off", kTriangleOff}, {"f.txt", "0"}, {"h.txt", "2"}},
+    cases.push_back({"argument" + extra,
+                     {{"m.off", kTriangleOff}, {"f.txt", "0"}, {"h.txt", "2"}},
                      "m.off --fixed f.txt --handle h.txt" + extra});
   };
   for (const std::string extra :
@@ -160,9 +165,11 @@ std::vector<Case> catalogue() {
         " --tolerance inf", " --tolerance -1", " --threads 0", " --threads 99999999999", " --anderson 1000",
         " --anderson -1", " --weights nan", " --init warm", " --translate 1.7e308,0,0 --rotate z,90"})
     arg(extra);
-  cases.push_back({"index file is /dev/zero", {{"m.off", kTriangleOff}, {"h.txt", "2"}},
+  cases.push_back({"index file is /dev/zero",
+                   {{"m.off", kTriangleOff}, {"h.txt", "2"}},
                    "m.off --fixed /dev/zero --handle h.txt --translate 0,0,1"});
-  cases.push_back({"index beyond int", {{"m.off", kTriangleOff}, {"f.txt", "99999999999"}, {"h.txt", "2"}},
+  cases.push_back({"index beyond int",
+                   {{"m.off", kTriangleOff}, {"f.txt", "99999999999"}, {"h.txt", "2"}},
                    "m.off --fixed f.txt --handle h.txt --translate 0,0,1"});
   return cases;
 }

@@ -272,7 +272,8 @@ TEST_F(MeshIo, OffCommentsAndTheFullDoubleRangeAreRead) {
   EXPECT_EQ(m.vertices(2, 1), 1e-300);
   EXPECT_EQ(m.vertices(3, 2), -2.5e200);
   EXPECT_EQ(m.polygons, (std::vector<std::vector<int>>{{0, 1, 2}, {0, 2, 3}}));
-  const PolygonMesh h = arap::io::read_mesh(write("header.off", "COFF 3 1 0\n0 0 0 255 0 0\n1 0 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n"));
+  const PolygonMesh h = arap::io::read_mesh(
+      write("header.off", "COFF 3 1 0\n0 0 0 255 0 0\n1 0 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n"));
   EXPECT_EQ(h.polygons, (std::vector<std::vector<int>>{{0, 1, 2}}));
 }
 

@@ -65,8 +65,7 @@ TEST(UnitScale, EveryFiniteScaleGivesTheSameShape) {
       if (scale * scale < 1e300 && scale * scale > 1e-300) {
         EXPECT_NEAR(s.stats.initial_energy / (scale * scale), unit.stats.initial_energy,
                     1e-9 * unit.stats.initial_energy);
-        EXPECT_NEAR(s.stats.energy.back() / (scale * scale), unit.stats.energy.back(),
-                    1e-9 * unit.stats.energy.back());
+        EXPECT_NEAR(s.stats.energy.back() / (scale * scale), unit.stats.energy.back(), 1e-9 * unit.stats.energy.back());
       }
     }
   }
@@ -138,8 +137,10 @@ TEST(BadInput, EnergyAndGradientRefuseNonFinitePositions) {
     P(7, 1) = bad;
     for (int which = 0; which < 2; ++which) {
       try {
-        if (which == 0) solver.energy(P);
-        else solver.energy_gradient(P);
+        if (which == 0)
+          solver.energy(P);
+        else
+          solver.energy_gradient(P);
         ADD_FAILURE() << (which ? "energy_gradient" : "energy") << " accepted " << bad;
       } catch (const arap::Error& e) {
         EXPECT_EQ(e.code(), arap::ErrorCode::NonFinite);
