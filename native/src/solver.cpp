@@ -238,7 +238,9 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       previous_energy = e;
     }
     s.last_energy = stats.energy.empty() ? stats.initial_energy : stats.energy.back();
-    if (!s.state.allFinite() || !std::isfinite(s.last_energy))
+    // Finite in internal units is not enough: times `unit` it must stay finite too.
+    if (!s.state.allFinite() || !std::isfinite(s.state.cwiseAbs().maxCoeff() * s.unit) ||
+        !std::isfinite(s.last_energy))
       throw Error(ErrorCode::NonFinite,
                   "the solve produced non-finite positions or energy (the mesh was left unchanged)");
   } catch (...) {
