@@ -1,6 +1,7 @@
 #include "unit_scale.h"
 
 #include <cmath>
+#include <limits>
 
 namespace arap {
 
@@ -14,12 +15,13 @@ double unit_scale_of(const Eigen::Ref<const Points>& rest) {
 }
 
 double energy_to_user_units(double energy, double unit) {
+  // An energy that overflowed on the way (inf - inf in a cell gives NaN) is +inf.
+  if (std::isnan(energy)) return std::numeric_limits<double>::infinity();
   // Two factors of `unit`, each exact; a zero energy stays zero where unit^2 overflows (not 0 * inf = NaN).
-  return energy == 0.0 ? 0.0 : energy * unit * unit;
+  return energy == 0.0 || unit == 1.0 ? energy : energy * unit * unit;
 }
 
 void energies_to_user_units(SolveStats& stats, double unit) {
-  if (unit == 1.0) return;
   stats.initial_energy = energy_to_user_units(stats.initial_energy, unit);
   for (double& e : stats.energy) e = energy_to_user_units(e, unit);
 }

@@ -18,7 +18,8 @@ namespace arap {
 double unit_scale_of(const Eigen::Ref<const Points>& rest);
 
 // An energy from internal units to the caller's (times unit^2): +-inf when
-// that exceeds the double range (meshes larger than ~1e154), never NaN.
+// that exceeds the double range (coordinates beyond ~1e154), never NaN (an
+// energy that overflowed inside the solver, inf - inf, is reported as +inf).
 double energy_to_user_units(double energy, double unit);
 void energies_to_user_units(SolveStats& stats, double unit);
 
