@@ -41,7 +41,7 @@ if [ "$mode" = sanitize ]; then
   CC=clang CXX=clang++ cmake -S . -B "$SBUILD" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DARAP_FUZZ=ON
   cmake --build "$SBUILD" -j"$(nproc)"
   ctest --test-dir "$SBUILD" --output-on-failure -j"$(nproc)"
-  bash native/fuzz/run_fuzzers.sh "$SBUILD" "${FUZZ_SECONDS:-60}"
+  FUZZ_SEED=${FUZZ_SEED:-1} bash native/fuzz/run_fuzzers.sh "$SBUILD" "${FUZZ_SECONDS:-60}"
   exit 0
 fi
 

@@ -316,7 +316,10 @@ Points Solver::energy_gradient(const Eigen::Ref<const Points>& positions) const 
   Points gradient(s.mesh.n, 3), gradient_input;
   arap::energy_gradient(s.mesh, P.data(), R.data(), gradient.data());
   to_input(s.mesh, gradient, gradient_input);
-  return gradient_input * s.unit;  // E = unit^2 E(p / unit): dE/dp = unit dE_internal
+  gradient_input *= s.unit;  // E = unit^2 E(p / unit): dE/dp = unit dE_internal
+  if (!gradient_input.allFinite())
+    throw Error(ErrorCode::NonFinite, "energy_gradient(): the gradient is beyond the double range at this scale");
+  return gradient_input;
 }
 
 }  // namespace arap
