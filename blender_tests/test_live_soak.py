@@ -1,4 +1,4 @@
-# A bounded Live soak (issue 14): 3000 steps of one session while an Empty
+# A bounded Live soak (issue 14): 6000 steps of one session while an Empty
 # goes round a closed path again and again. Memory stays flat, and each time
 # the path comes back to the same pose the energy is the same: no drift, no
 # growth, nothing accumulating in the session.
@@ -13,7 +13,7 @@ import arap_test_utils as U
 from arap_deform import api
 
 PERIOD = 50   # steps per lap of the Empty's path
-LAPS = 60     # 3000 steps
+LAPS = 120    # 6000 steps
 
 
 def resident_kib():
@@ -54,12 +54,14 @@ class LiveSoak(unittest.TestCase):
         settled = np.array(energies_at_start[5:])
         spread = (settled.max() - settled.min()) / abs(settled.mean())
         print("soak: %d steps, energy at the repeated pose %.12g (relative spread %.2e), resident memory "
-              "%d -> %d KiB" % (PERIOD * LAPS, settled[-1], spread, memory[5], memory[-1]))
+              "by lap (KiB): %s" % (PERIOD * LAPS, settled[-1], spread, memory[::10]))
         self.assertLess(spread, 1e-9)
         # ... and the mesh did follow the Empty round the lap.
         self.assertGreater(abs(energies_at_quarter[-1] - settled[-1]), 0.1 * abs(settled[-1]))
-        # Flat memory: no more than 4 MiB between lap 5 and the last lap.
-        self.assertLess(memory[-1] - memory[5], 4096)
+        # Flat memory: Blender's allocators settle in the first laps (one step of
+        # 4 MiB seen on 4.3); over the last 3000 steps a leak of even one float32
+        # copy of this 150-vertex mesh per step (1.8 KiB) would add 5 MiB.
+        self.assertLess(memory[-1] - memory[LAPS // 2], 2048)
         session.cancel()
         np.testing.assert_array_equal(U.raw_coords(obj), before)
 
