@@ -4,6 +4,8 @@
 #   bash setup.sh test          install the packages, build, run every test (C++ and Blender)
 #   bash setup.sh test-blender  the same for the Blender suites only (the version matrix in CI)
 #   bash setup.sh bench         install the benchmark's extra packages and run the benchmarks
+#   bash setup.sh sanitize      clang build with ASan + UBSan + libFuzzer (build-sanitize/): the C++ tests and
+#                               the CLI's hostile catalogue, then each fuzz target for FUZZ_SECONDS (default 60)
 #   bash setup.sh deps          only install the packages
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -15,6 +17,8 @@ packages=(build-essential cmake libeigen3-dev libopenmesh-dev nlohmann-json3-dev
           # Blender's own extensions add-on imports these; some Debian releases' blender lacks them.
           python3-requests python3-cattr)
 [ "$mode" = bench ] && packages+=(libcgal-dev python3-matplotlib)
+# libclang-rt-dev: the sanitizer and libFuzzer runtimes of Debian's default clang.
+[ "$mode" = sanitize ] && packages+=(clang libclang-rt-dev)
 
 missing=()
 for p in "${packages[@]}"; do
@@ -29,6 +33,17 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 [ "$mode" = deps ] && exit 0
+
+if [ "$mode" = sanitize ]; then
+  # Only the native library, CLI, C++ tests and fuzz targets (ARAP_SANITIZE leaves out the
+  # Python module, which could not load into Blender, and the benchmarks).
+  SBUILD=${ARAP_SANITIZE_BUILD_DIR:-build-sanitize}
+  CC=clang CXX=clang++ cmake -S . -B "$SBUILD" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DARAP_FUZZ=ON
+  cmake --build "$SBUILD" -j"$(nproc)"
+  ctest --test-dir "$SBUILD" --output-on-failure -j"$(nproc)"
+  FUZZ_SEED=${FUZZ_SEED:-1} bash native/fuzz/run_fuzzers.sh "$SBUILD" "${FUZZ_SECONDS:-60}"
+  exit 0
+fi
 
 configure=(-DCMAKE_BUILD_TYPE=Release)
 [ "$mode" = test-blender ] && configure+=(-DARAP_BUILD_BENCH=OFF)
@@ -56,7 +71,7 @@ case "$mode" in
       --addon-dir "$BUILD/addon" --sizes 10000,50000,200000 --frames 20 --output "$BUILD/results"
     ;;
   *)
-    echo "usage: bash setup.sh [test|test-blender|bench|deps]" >&2
+    echo "usage: bash setup.sh [test|test-blender|bench|sanitize|deps]" >&2
     exit 2
     ;;
 esac

@@ -80,6 +80,23 @@ class FileFailed(Exception):
     pass
 
 
+def write_failure(out, exc, free_bytes=None):
+    """The reason a result could not be saved. Blender reports a full disk as
+    "No such file or directory" (it fails to rename the half-written file), so
+    the free space of the output's folder decides what to say."""
+    folder = os.path.dirname(out) or "."
+    if free_bytes is None:
+        try:
+            st = os.statvfs(folder)
+            free_bytes = st.f_bavail * st.f_frsize
+        except OSError:
+            free_bytes = None
+    said = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+    if free_bytes is not None and free_bytes < (1 << 20):
+        return "no space left on the device of %s (%d bytes free); Blender said: %s" % (folder, free_bytes, said)
+    return "cannot write %s: %s" % (out, said)
+
+
 def _ensure_addon():
     """Register the add-on this module belongs to (once per process)."""
     package = __package__ or "arap_deform"
@@ -155,8 +172,10 @@ def process(entry, job):
     tmp = temp_name(out)
     written = []
     try:
-        if not os.path.isfile(inp):
+        if not os.path.exists(inp):
             raise FileFailed("input file not found")
+        if not os.path.isfile(inp):
+            raise FileFailed("the input is not a regular file (a device, FIFO or socket)")
         try:
             bpy.ops.wm.open_mainfile(filepath=inp, load_ui=False)
         except RuntimeError as exc:
@@ -170,7 +189,10 @@ def process(entry, job):
                 bpy.context.view_layer.objects.active = obj
                 bpy.ops.object.mode_set(mode='OBJECT')
             rec["objects"].append(_pose(obj, job, scene, out, written))
-        bpy.ops.wm.save_as_mainfile(filepath=tmp, copy=True, relative_remap=True)
+        try:
+            bpy.ops.wm.save_as_mainfile(filepath=tmp, copy=True, relative_remap=True)
+        except RuntimeError as exc:
+            raise FileFailed(write_failure(out, exc)) from None
         _Stop.critical = True   # main() reports this file before honouring SIGTERM
         os.replace(tmp, out)
         rec["status"] = "ok"

@@ -43,6 +43,18 @@ def empty_is_alive(empty, scene):
     return scene is None or scene.objects.get(name) == empty
 
 
+def invert(matrix, what):
+    """The inverse of a 4x4 transform; SetupError naming `what` when it has
+    (near) zero scale and so no usable inverse."""
+    try:
+        inverse = np.linalg.inv(matrix)
+    except np.linalg.LinAlgError:
+        inverse = None
+    if inverse is None or not np.all(np.isfinite(inverse)):
+        raise SetupError("%s has zero scale, so its transform cannot be inverted: give it a non-zero scale" % what)
+    return inverse
+
+
 class HandleBlock:
     """Rows [start, stop) of the constrained list follow `empty`."""
 
@@ -52,7 +64,8 @@ class HandleBlock:
         self.empty = empty
         self.start = start
         self.stop = stop
-        self.bind_inv = np.linalg.inv(bind)
+        self.bind_inv = invert(bind, "The bind pose of handle '%s' (its empty '%s' when the pose was taken; "
+                                     "press Reset to Rest after fixing it)" % (group, empty.name))
 
 
 class Setup:
@@ -68,6 +81,11 @@ class Setup:
 def check_object(obj):
     if obj is None or obj.type != 'MESH':
         raise SetupError("ARAP works on a mesh object: select one and make it active")
+    for what, block in (("object", obj), ("mesh", obj.data)):
+        if block.library is not None:
+            raise SetupError("The %s '%s' is linked from the library '%s' and cannot be changed: make it local "
+                             "(Object > Relations > Make Local) or pose a library override"
+                             % (what, block.name, block.library.filepath))
     if obj.mode == 'EDIT':
         raise SetupError("Leave Edit Mode first (Tab): ARAP reads and writes the mesh in Object Mode")
 
@@ -149,9 +167,9 @@ def collapsed_handles(setup, empty_matrices, ratio=1e-6):
     return names
 
 
-def handle_transforms(setup, obj_matrix, empty_matrices):
+def handle_transforms(setup, obj_matrix, empty_matrices, obj_name="the posed object"):
     """Per handle: the object-local 4x4 map M_obj^-1 @ M_now @ M_bind^-1 @ M_obj."""
-    obj_inv = np.linalg.inv(obj_matrix)
+    obj_inv = invert(obj_matrix, "'%s'" % obj_name)
     return [obj_inv @ m_now @ h.bind_inv @ obj_matrix for h, m_now in zip(setup.handles, empty_matrices)]
 
 

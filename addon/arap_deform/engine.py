@@ -186,7 +186,7 @@ class Problem:
 
     def compute_targets(self, obj, scene):
         transforms = constraints.handle_transforms(
-            self.setup, constraints.matrix_to_numpy(obj.matrix_world), self.empty_matrices(scene))
+            self.setup, constraints.matrix_to_numpy(obj.matrix_world), self.empty_matrices(scene), obj.name)
         return constraints.fill_targets(self.setup, self.rest_constrained, transforms, self.targets)
 
 
@@ -345,6 +345,9 @@ def user_error(exc):
 
 _sessions = set()
 
+# How often a Live session compares the faces in full (see meshio.Topology).
+TOPOLOGY_CHECK_S = 1.0
+
 
 class LiveSession:
     """Bind once, then step(): read empties, solve warm-started, write.
@@ -354,11 +357,17 @@ class LiveSession:
     """
 
     def __init__(self, obj, scene=None, iterations=None, write=True):
+        constraints.check_object(obj)
+        if session_for(obj) is not None:
+            # A second session would take the first one's pose as its rest shape.
+            raise SetupError("'%s' is already being posed by a Live session: apply or cancel it first" % obj.name)
         self.obj = obj
         self.scene = scene
         sync_matrices()
         self.problem = Problem(obj, scene)
         self.n_vertices = len(obj.data.vertices)
+        self.topology = meshio.Topology(obj.data)
+        self._next_topology_check = time.monotonic() + TOPOLOGY_CHECK_S
         self.snapshot = meshio.Snapshot(obj)
         s = obj.arap
         self.solver = native().Solver()
@@ -388,8 +397,10 @@ class LiveSession:
             self.output.ensure()
         _sessions.add(self)
 
-    def check(self):
-        """Raise SessionError when the object can no longer be posed."""
+    def check(self, full=False):
+        """Raise SessionError when the object can no longer be posed. The
+        faces are compared in full at most every TOPOLOGY_CHECK_S seconds (or
+        with `full`); element counts every time."""
         try:
             obj = self.obj
             n = len(obj.data.vertices)
@@ -399,6 +410,13 @@ class LiveSession:
         if n != self.n_vertices:
             raise SessionError("The mesh's vertex count changed (%d -> %d): Live stopped"
                                % (self.n_vertices, n), 'TOPOLOGY')
+        now = time.monotonic()
+        full = full or now >= self._next_topology_check
+        if not (self.topology.unchanged(obj.data) if full else self.topology.counts_match(obj.data)):
+            raise SessionError("The mesh's faces changed (same vertex count, new connectivity): Live stopped",
+                               'TOPOLOGY')
+        if full:
+            self._next_topology_check = now + TOPOLOGY_CHECK_S
         if mode != 'OBJECT':
             raise SessionError("'%s' left Object Mode: Live stopped" % obj.name, 'MODE')
 
@@ -407,6 +425,7 @@ class LiveSession:
         object did not move and the last solve had converged."""
         self.check()
         t0 = time.perf_counter()
+        sync_matrices()  # scripts move empties without a depsgraph update; cheap when nothing changed
         try:
             mats = self.problem.empty_matrices(self.scene)
         except SetupError as exc:
@@ -416,7 +435,7 @@ class LiveSession:
         if not force and self.converged and self._pose is not None and np.array_equal(pose, self._pose):
             return None
         self._pose = pose
-        transforms = constraints.handle_transforms(self.problem.setup, obj_matrix, mats)
+        transforms = constraints.handle_transforms(self.problem.setup, obj_matrix, mats, self.obj.name)
         targets = constraints.fill_targets(self.problem.setup, self.problem.rest_constrained, transforms,
                                            self.problem.targets)
         t1 = time.perf_counter()
@@ -442,8 +461,14 @@ class LiveSession:
             self.snapshot.restore()
 
     def finish(self):
-        """Keep the current result."""
+        """Keep the current result. Raises SessionError (and stops without
+        keeping anything more) when the faces changed since the last check."""
         if self.active:
+            try:
+                self.check(full=True)
+            except SessionError:
+                stop_session(self)
+                raise
             self.active = False
             _sessions.discard(self)
             if self.problem.output == 'MESH' and not self.snapshot.had_rest:

@@ -100,22 +100,27 @@ PolygonMesh read_mesh(const std::string& path) {
   if (size == 0) fail(path, "empty file");
   if (size > kMaxFileBytes) fail(path, "file larger than 1 GiB");
   const std::string ext = extension_of(path);
-  const detail::Expected expected = detail::prescan(path, ext, size);
+  detail::Expected expected = detail::prescan(path, ext, size);
 
   // Every vertex and face takes at least one byte of the file.
   detail::RawImporter importer(static_cast<std::size_t>(size) + 16);
-  OpenMesh::IO::Options options;
-  bool ok = false;
-  {
-    detail::QuietOpenMesh quiet;
-    try {
-      // OpenMesh picks its reader from the extension, in lower case.
-      ok = OpenMesh::IO::IOManager().read(path, importer, options);
-    } catch (const detail::ImportLimitExceeded& e) {
-      fail(path, e.what());
+  if (expected.complete) {
+    importer.faces = std::move(expected.polygons);  // the scan read the whole mesh (OFF)
+    importer.points.resize(static_cast<std::size_t>(expected.vertices));
+  } else {
+    OpenMesh::IO::Options options;
+    bool ok = false;
+    {
+      detail::QuietOpenMesh quiet;
+      try {
+        // OpenMesh picks its reader from the extension, in lower case.
+        ok = OpenMesh::IO::IOManager().read(path, importer, options);
+      } catch (const detail::ImportLimitExceeded& e) {
+        fail(path, e.what());
+      }
     }
+    if (!ok) fail(path, "OpenMesh could not parse the file as ." + ext);
   }
-  if (!ok) fail(path, "OpenMesh could not parse the file as ." + ext);
 
   const long long nv = static_cast<long long>(importer.points.size());
   const long long nf = static_cast<long long>(importer.faces.size());

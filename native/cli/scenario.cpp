@@ -20,16 +20,28 @@ using nlohmann::json;
   throw Error(ErrorCode::InvalidInput, path + ": " + what);
 }
 
+// A scenario nests 5 levels deep (object, handles, handle, matrix, row); a
+// deeper document is refused while it is parsed, before anything recursive
+// (dump(), the destructor) could run out of stack on it.
+constexpr int kMaxDepth = 32;
+
+// A JSON value for an error message: one line, at most 40 characters.
+std::string shown(const json& j) {
+  std::string s = j.dump();
+  return s.size() > 40 ? s.substr(0, 37) + "..." : s;
+}
+
 std::vector<int> index_list(const std::string& path, const json& j, const std::string& where) {
   if (!j.is_array()) invalid(path, where + " must be a list of vertex indices");
   std::vector<int> out;
   out.reserve(j.size());
   for (const json& v : j) {
-    if (!v.is_number_integer()) invalid(path, where + " holds " + v.dump() + ", not an integer vertex index");
-    const long long i = v.get<long long>();
-    if (i < INT_MIN || i > INT_MAX)
-      throw Error(ErrorCode::IndexOutOfRange, path + ": " + where + " holds the index " + std::to_string(i));
-    out.push_back(static_cast<int>(i));
+    if (!v.is_number_integer()) invalid(path, where + " holds " + shown(v) + ", not an integer vertex index");
+    // Unsigned values above 2^63 must not wrap to negative numbers.
+    if (v.is_number_unsigned() ? v.get<unsigned long long>() > INT_MAX
+                               : v.get<long long>() < INT_MIN || v.get<long long>() > INT_MAX)
+      throw Error(ErrorCode::IndexOutOfRange, path + ": " + where + " holds the index " + shown(v));
+    out.push_back(static_cast<int>(v.get<long long>()));
   }
   return out;
 }
@@ -45,7 +57,7 @@ void require_regular_file(const std::string& path, const std::string& what) {
 }
 
 double number(const std::string& path, const json& j, const std::string& where) {
-  if (!j.is_number()) invalid(path, where + " holds " + j.dump() + ", not a number");
+  if (!j.is_number()) invalid(path, where + " holds " + shown(j) + ", not a number");
   return j.get<double>();
 }
 
@@ -77,10 +89,25 @@ Scenario load_scenario(const std::string& json_path) {
   std::ifstream in(json_path);
   if (!in) throw FileError(json_path + ": cannot open the scenario file");
   json doc;
+  bool too_deep = false;
   try {
-    doc = json::parse(in);
+    // The callback sees every value with its depth; returning false on the
+    // first one too deep would keep parsing, so a flag and a throw stop it.
+    doc = json::parse(in, [&too_deep](int depth, json::parse_event_t, json&) {
+      if (depth > kMaxDepth) {
+        too_deep = true;
+        throw std::length_error("too deep");
+      }
+      return true;
+    });
   } catch (const json::exception& e) {
-    throw FileError(json_path + ": not valid JSON (" + std::string(e.what()) + ")");
+    std::string why = e.what();  // quotes the offending token, which may be long
+    if (why.size() > 200) why = why.substr(0, 197) + "...";
+    throw FileError(json_path + ": not valid JSON (" + why + ")");
+  } catch (const std::length_error&) {
+    if (!too_deep) throw;
+    throw FileError(json_path + ": JSON nested deeper than " + std::to_string(kMaxDepth) +
+                    " levels (a scenario needs 5)");
   }
   if (!doc.is_object()) invalid(json_path, "the scenario must be a JSON object");
   Scenario s;

@@ -10,7 +10,9 @@
 #include <pybind11/stl.h>
 #include <pybind11/numpy.h>
 
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -93,15 +95,24 @@ OutBuffer check_out(py::array& out, Eigen::Index rows, const char* what) {
   return b;
 }
 
+// A float32 buffer receives nothing unless every value fits: a finite double
+// beyond 3.4e38 would become +-inf in the caller's mesh (and the cast is
+// undefined behaviour).
 void copy_out(const RowPoints& src, const OutBuffer& b) {
   const Eigen::Index n = src.size();
   if (b.is_double) {
     std::memcpy(b.data, src.data(), sizeof(double) * static_cast<size_t>(n));
-  } else {
-    float* dst = static_cast<float*>(b.data);
-    const double* s = src.data();
-    for (Eigen::Index i = 0; i < n; ++i) dst[i] = static_cast<float>(s[i]);
+    return;
   }
+  const double* s = src.data();
+  constexpr double kFloatMax = std::numeric_limits<float>::max();
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (!(std::abs(s[i]) <= kFloatMax))
+      throw arap::Error(arap::ErrorCode::NonFinite,
+                        "vertex " + std::to_string(i / 3) + " lands at " + std::to_string(s[i]) +
+                            ", beyond the float32 range (3.4e38) of the output buffer; nothing was written");
+  float* dst = static_cast<float*>(b.data);
+  for (Eigen::Index i = 0; i < n; ++i) dst[i] = static_cast<float>(s[i]);
 }
 
 arap::Triangles to_triangles(const py::array& a) {
@@ -224,8 +235,9 @@ PYBIND11_MODULE(_arap_native, m) {
             py::array out_arr;
             const bool has_out = !out.is_none();
             if (has_out) {
-              out_arr = py::array::ensure(out);
-              if (!out_arr) throw py::type_error("out: expected a numpy array");
+              // Not ensure(): a list would be copied into a temporary that nobody reads.
+              if (!py::isinstance<py::array>(out)) throw py::type_error("out: expected a numpy array");
+              out_arr = py::reinterpret_borrow<py::array>(out);
               b = check_out(out_arr, s.vertex_count(), "out");
             }
             py::gil_scoped_release release;
@@ -243,8 +255,8 @@ PYBIND11_MODULE(_arap_native, m) {
               std::memcpy(a.mutable_data(), s.positions().data(), sizeof(double) * s.positions().size());
               return py::object(std::move(a));
             }
-            py::array out_arr = py::array::ensure(out);
-            if (!out_arr) throw py::type_error("out: expected a numpy array");
+            if (!py::isinstance<py::array>(out)) throw py::type_error("out: expected a numpy array");
+            py::array out_arr = py::reinterpret_borrow<py::array>(out);
             OutBuffer b = check_out(out_arr, s.positions().rows(), "out");
             {
               py::gil_scoped_release release;

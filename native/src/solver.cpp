@@ -11,6 +11,7 @@
 #include "bound_mesh.h"
 #include "initial_guess.h"
 #include "local_step.h"
+#include "unit_scale.h"
 
 namespace arap {
 
@@ -46,8 +47,11 @@ struct Solver::Impl {
   bool bound = false;
   bool has_solution = false;   // positions hold a solve() result (warm start possible)
   bool rotations_valid = false;  // rotations are optimal for `positions`
+  double unit = 1.0;           // internal coordinates = input / unit (see unit_scale.h)
+  double last_energy = 0.0;    // energy of the last solution (internal units)
 
-  Points state;      // the current solution in internal vertex order (see bound_mesh.h)
+  Points state;      // the current solution in internal vertex order and units (see bound_mesh.h)
+  Points targets;    // the last targets in internal units
   Points positions;  // the same in input order, as returned by positions()
   Points state_backup;
   std::vector<Eigen::Matrix3d> rotations;
@@ -148,7 +152,8 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
   auto next = std::make_unique<Impl>();
   next->options = options;
   next->bound_weights = options.weights;
-  next->mesh = build_bound_mesh(rest, triangles, constrained, options.weights, stiffness);
+  next->unit = unit_scale_of(rest);
+  next->mesh = build_bound_mesh(rest / next->unit, triangles, constrained, options.weights, stiffness);
   next->bind_stats.mesh_ms = ms_since(start);
   next->triangles.resize(triangles.rows(), 3);
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)
@@ -190,6 +195,9 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     if (!targets.row(r).allFinite())
       throw Error(ErrorCode::NonFinite, "target " + std::to_string(r) + " (vertex " +
                                             std::to_string(s.constrained_input[r]) + ") is not finite");
+  s.targets = targets / s.unit;  // same size every solve: no allocation after the first
+  if (!s.targets.allFinite())
+    throw Error(ErrorCode::NonFinite, "a target is beyond the double range relative to the mesh's size");
 
   SolveStats stats;
   stats.energy.reserve(s.options.max_iterations);
@@ -200,16 +208,18 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     InitialGuess guess = s.options.init;
     if (guess == InitialGuess::WarmStart && !s.has_solution) guess = s.options.cold_start;
     // A warm start keeps the rotations of the last solution for its first global step.
-    const bool reuse_rotations = guess == InitialGuess::WarmStart && s.rotations_valid;
+    // (Not with no iteration to run: the returned energy must be that of the returned positions.)
+    const bool reuse_rotations =
+        guess == InitialGuess::WarmStart && s.rotations_valid && s.options.max_iterations > 0;
     // A cold start forgets every hint of the last solve: same input, same output bit for bit.
     if (guess != InitialGuess::WarmStart) std::fill(s.eigenvalues.begin(), s.eigenvalues.end(), 0.0);
-    s.apply_targets(targets, s.state);
+    s.apply_targets(s.targets, s.state);
     s.first_guess(guess);
     stats.init_ms = ms_since(t);
 
     double previous_energy = std::numeric_limits<double>::quiet_NaN();
     if (!reuse_rotations) previous_energy = stats.initial_energy = s.local(stats);
-    else stats.initial_energy = previous_energy;
+    else stats.initial_energy = s.last_energy;  // the first guess's own energy would cost a local step
     if (s.options.anderson_window > 0) {
       const size_t nf3 = 3 * s.mesh.free_vertices.size();
       s.free_before.resize(nf3), s.free_after.resize(nf3), s.free_next.resize(nf3);
@@ -227,15 +237,21 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       }
       previous_energy = e;
     }
-    if (!s.state.allFinite())
-      throw Error(ErrorCode::NonFinite, "the solve produced non-finite positions (the mesh was left unchanged)");
+    s.last_energy = stats.energy.empty() ? stats.initial_energy : stats.energy.back();
+    // Finite in internal units is not enough: times `unit` it must stay finite too.
+    if (!s.state.allFinite() || !std::isfinite(s.state.cwiseAbs().maxCoeff() * s.unit) ||
+        !std::isfinite(s.last_energy))
+      throw Error(ErrorCode::NonFinite,
+                  "the solve produced non-finite positions or energy (the mesh was left unchanged)");
   } catch (...) {
     s.state = s.state_backup;
     s.rotations_valid = false;
     throw;
   }
   to_input(s.mesh, s.state, s.positions);
+  if (s.unit != 1.0) s.positions *= s.unit;
   s.has_solution = true;
+  energies_to_user_units(stats, s.unit);
   return stats;
 }
 
@@ -249,7 +265,7 @@ void Solver::set_positions(const Eigen::Ref<const Points>& positions) {
                                              std::to_string(positions.rows()));
   if (!positions.allFinite()) throw Error(ErrorCode::NonFinite, "positions contain NaN or Inf");
   s.positions = positions;
-  to_internal(s.mesh, positions, s.state);
+  to_internal(s.mesh, positions / s.unit, s.state);
   s.has_solution = true;
   s.rotations_valid = false;
 }
@@ -268,12 +284,14 @@ namespace {
 
 // Positions given in input order, moved to internal order, with the optimal
 // rotation of every cell; returns the energy. For energy() and energy_gradient().
-double evaluate(const BoundMesh& m, const Eigen::Ref<const Points>& positions, int threads, const char* caller,
-                Points& P, std::vector<Eigen::Matrix3d>& R) {
+double evaluate(const BoundMesh& m, double unit, const Eigen::Ref<const Points>& positions, int threads,
+                const char* caller, Points& P, std::vector<Eigen::Matrix3d>& R) {
   if (positions.rows() != m.n)
     throw Error(ErrorCode::InvalidInput, std::string(caller) + ": expected " + std::to_string(m.n) +
                                              " positions, got " + std::to_string(positions.rows()));
-  to_internal(m, positions, P);
+  if (!positions.allFinite())
+    throw Error(ErrorCode::NonFinite, std::string(caller) + ": positions contain NaN or Inf");
+  to_internal(m, positions / unit, P);
   R.resize(m.n);
   std::vector<double> cells(m.n);
   return local_step(m, P.data(), R.data(), cells.data(), threads, nullptr);
@@ -286,7 +304,7 @@ double Solver::energy(const Eigen::Ref<const Points>& positions) const {
   if (!s.bound) throw Error(ErrorCode::NotBound, "energy() called before bind()");
   Points P;
   std::vector<Eigen::Matrix3d> R;
-  return evaluate(s.mesh, positions, s.options.threads, "energy()", P, R);
+  return energy_to_user_units(evaluate(s.mesh, s.unit, positions, s.options.threads, "energy()", P, R), s.unit);
 }
 
 Points Solver::energy_gradient(const Eigen::Ref<const Points>& positions) const {
@@ -294,10 +312,13 @@ Points Solver::energy_gradient(const Eigen::Ref<const Points>& positions) const 
   if (!s.bound) throw Error(ErrorCode::NotBound, "energy_gradient() called before bind()");
   Points P;
   std::vector<Eigen::Matrix3d> R;
-  evaluate(s.mesh, positions, s.options.threads, "energy_gradient()", P, R);
+  evaluate(s.mesh, s.unit, positions, s.options.threads, "energy_gradient()", P, R);
   Points gradient(s.mesh.n, 3), gradient_input;
   arap::energy_gradient(s.mesh, P.data(), R.data(), gradient.data());
   to_input(s.mesh, gradient, gradient_input);
+  gradient_input *= s.unit;  // E = unit^2 E(p / unit): dE/dp = unit dE_internal
+  if (!gradient_input.allFinite())
+    throw Error(ErrorCode::NonFinite, "energy_gradient(): the gradient is beyond the double range at this scale");
   return gradient_input;
 }
 

@@ -17,51 +17,13 @@
 #include "arap/mesh_io.h"
 #include "arap/procedural.h"
 #include "arap/scenario.h"
+#include "cli_fixture.h"
 
 namespace {
 
 namespace fs = std::filesystem;
+using arap_test::TempDir;
 using nlohmann::json;
-
-class TempDir : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("arap_cli_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-  std::string write(const std::string& name, const std::string& text) const {
-    std::ofstream(path(name), std::ios::binary) << text;
-    return path(name);
-  }
-  static std::string slurp(const std::string& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  }
-  // A 1 x 1 x 5 bar standing on z = 0: fixed.txt (bottom fifth) and handle.txt (top 5%).
-  arap::procedural::TriMesh make_bar_files(const std::string& mesh_name = "bar.obj") {
-    const auto bar = arap::procedural::make_bar(3, 3, 15, 1.0, 1.0, 5.0);
-    arap::io::write_mesh(path(mesh_name), bar.vertices, arap::io::to_polygons(bar.triangles));
-    const auto picked = arap::procedural::pick_by_height(bar.vertices);
-    fixed_ = picked.fixed;
-    handle_ = picked.handle;
-    write("fixed.txt", join(fixed_));
-    write("handle.txt", join(handle_));
-    return bar;
-  }
-  static std::string join(const std::vector<int>& v) {
-    std::string s;
-    for (int i : v) s += std::to_string(i) + " ";
-    return s + "\n";
-  }
-  fs::path dir_;
-  std::vector<int> fixed_, handle_;
-};
 
 // ---------------------------------------------------------------- scenarios
 
@@ -131,6 +93,30 @@ TEST_F(Scenario, ErrorsAreTyped) {
   EXPECT_THROW(arap::io::build_constraints(rest, {-1}, {}), arap::Error);
 }
 
+// Issue 14: a "fixed" nested 200 000 deep overflowed the stack in dump() (SIGSEGV).
+TEST_F(Scenario, DeepNestingIsRefusedWithoutRecursion) {
+  const std::string deep = std::string(200000, '[') + std::string(200000, ']');
+  for (const std::string& json : {R"({"mesh": "m.off", "fixed": )" + deep + "}", deep,
+                                  R"({"mesh": "m.off", "handles": [{"vertices": )" + deep + "}]}"}) {
+    try {
+      arap::io::load_scenario(write("deep.json", json));
+      ADD_FAILURE() << "accepted";
+    } catch (const arap::io::FileError& e) {
+      EXPECT_NE(std::string(e.what()).find("nested deeper than"), std::string::npos) << e.what();
+    }
+  }
+  // The 5 levels a scenario needs are fine; unsigned indices do not wrap around.
+  EXPECT_NO_THROW(arap::io::load_scenario(write("ok.json", R"({"mesh": "m.off", "handles": [{"vertices": [1],
+                    "matrix": [[1,0,0,0], [0,1,0,0], [0,0,1,0], [0,0,0,1]]}]})")));
+  try {
+    arap::io::load_scenario(write("u.json", R"({"mesh": "m.off", "fixed": [18446744073709551615]})"));
+    ADD_FAILURE() << "accepted 2^64-1";
+  } catch (const arap::Error& e) {
+    EXPECT_EQ(e.code(), arap::ErrorCode::IndexOutOfRange);
+    EXPECT_NE(std::string(e.what()).find("18446744073709551615"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(Scenario, MalformedFilesAreRefused) {
   EXPECT_THROW(arap::io::load_scenario(path("missing.json")), arap::io::FileError);
   EXPECT_THROW(arap::io::load_scenario(write("a.json", "{not json")), arap::io::FileError);
@@ -151,38 +137,8 @@ TEST_F(Scenario, MalformedFilesAreRefused) {
 
 #ifdef ARAP_DEFORM_EXE
 
-struct Result {
-  int code = -1;
-  std::string out, err;
-};
-
-class Cli : public TempDir {
- protected:
-  Result run(const std::string& args) {
-    const std::string out = path("stdout.txt"), err = path("stderr.txt");
-    const std::string cmd = "cd '" + dir_.string() + "' && timeout 60 '" + ARAP_DEFORM_EXE + "' " + args + " >'" + out +
-                            "' 2>'" + err + "'";
-    const int status = std::system(cmd.c_str());
-    Result r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    fs::remove(out);
-    fs::remove(err);
-    return r;
-  }
-  // Exit 2, one line on stderr, no output, no report, no temporary left behind.
-  void expect_bad_input(const std::string& args) {
-    SCOPED_TRACE(args);
-    const Result r = run(args + " --output out.off --report report.json");
-    EXPECT_EQ(r.code, 2) << r.err;
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-    EXPECT_FALSE(fs::exists(path("out.off")));
-    EXPECT_FALSE(fs::exists(path("report.json")));
-    for (const auto& entry : fs::directory_iterator(dir_))
-      EXPECT_EQ(entry.path().filename().string().find("arap-tmp"), std::string::npos) << entry.path();
-  }
-};
+using arap_test::Cli;
+using arap_test::Result;
 
 TEST_F(Cli, BendsABarAndReports) {
   const auto bar = make_bar_files();

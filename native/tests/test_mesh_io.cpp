@@ -140,6 +140,10 @@ std::string floats(std::initializer_list<float> f) {
   return std::string(reinterpret_cast<const char*>(f.begin()), f.size() * sizeof(float));
 }
 
+std::string doubles(std::initializer_list<double> d) {
+  return std::string(reinterpret_cast<const char*>(d.begin()), d.size() * sizeof(double));
+}
+
 struct Hostile {
   const char* name;  // file name, extension selects the reader
   std::string bytes;
@@ -209,6 +213,33 @@ std::vector<Hostile> hostile_files() {
       {"count_mismatch.stl", stl_bad},
       {"truncated.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0"},
       {"unsupported.xyz", "0 0 0\n"},
+      // Issue 14: numbers OpenMesh's float parsers cannot hold (it hung, clamped or misread them).
+      {"version_1e40.ply", "ply\nformat ascii 1e40\n" + ply_head.substr(21) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"},
+      {"version_1e300.ply", "ply\nformat ascii 1e300\n" + ply_head.substr(21) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"},
+      {"version_2.ply", "ply\nformat ascii 2.0\n" + ply_head.substr(21) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"},
+      {"coordinate_1e39.ply", ply_head + "0 0 0\n1e39 0 0\n0 1 0\n3 0 1 2\n"},
+      {"coordinate_1e300.ply", ply_head + "0 0 0\n0 -1e300 0\n0 1 0\n3 0 1 2\n"},
+      {"fractional_index.ply", ply_head + "0 0 0\n1 0 0\n0 1 0\n3 0 1.5 2\n"},
+      {"index_beyond_int.ply", ply_head + "0 0 0\n1 0 0\n0 1 0\n3 0 1 99999999999\n"},
+      {"list_count_beyond_uchar.ply", ply_head + "0 0 0\n1 0 0\n0 1 0\n300 0 1 2\n"},
+      {"coordinate_1e39_binary.ply",
+       "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+       "property double z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n" +
+           doubles({0, 0, 0, 1e39, 0, 0, 0, 1, 0}) + "\x03" + le32(0) + le32(1) + le32(2)},
+      // Found by fuzz_mesh_read: OpenMesh's OBJ reader aborts (assertion) on a face token starting with '/'.
+      {"face_slash_first.obj", "v 0 0 0\nv 1 0 0\nv 1 2 0\nf /1/1 2/1/1 3/1/1\n"},
+      {"face_fraction.obj", "v 0 0 0\nv 1 0 0\nv 1 2 0\nf 1.5 2 3\n"},
+      {"face_zero.obj", "v 0 0 0\nv 1 0 0\nv 1 2 0\nf 0 1 2\n"},
+      {"coordinate_1e39.obj", "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n"},
+      {"coordinate_1e39.stl",
+       "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1e39 0 0\nvertex 0 1 0\n"
+       "endloop\nendfacet\nendsolid t\n"},
+      {"coordinate_nan.stl",
+       "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex nan 0 0\nvertex 0 1 0\n"
+       "endloop\nendfacet\nendsolid t\n"},
+      {"counts_18_digits.off", "OFF\n999999999999999999 999999999999999999 0\n0 0 0\n"},
+      {"counts_19_digits.off", "OFF\n9999999999999999999 1 0\n0 0 0\n"},
+      {"coordinate_1e999.off", "OFF\n3 1 0\n0 0 0\n1e999 0 0\n0 1 0\n3 0 1 2\n"},
   };
 }
 
@@ -227,6 +258,29 @@ TEST_F(MeshIo, HostileFilesAreRefusedQuickly) {
     }
     EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 5.0);
   }
+}
+
+// OFF is read by our own parser: '#' comments anywhere, counts on the keyword's
+// line, and the full double range (OpenMesh's float parser misread 1e39).
+TEST_F(MeshIo, OffCommentsAndTheFullDoubleRangeAreRead) {
+  const PolygonMesh m = arap::io::read_mesh(
+      write("commented.off",
+            "# made by hand\nOFF # keyword\n# counts next\n4 2 0\n0 0 0 # origin\n1e39 0 0\n\n# a gap\n"
+            "0 1e-300 0\n1 1 -2.5e200\n3 0 1 2 # first\n#\n3 0 2 3\n"));
+  ASSERT_EQ(m.vertices.rows(), 4);
+  EXPECT_EQ(m.vertices(1, 0), 1e39);
+  EXPECT_EQ(m.vertices(2, 1), 1e-300);
+  EXPECT_EQ(m.vertices(3, 2), -2.5e200);
+  EXPECT_EQ(m.polygons, (std::vector<std::vector<int>>{{0, 1, 2}, {0, 2, 3}}));
+  const PolygonMesh h = arap::io::read_mesh(
+      write("header.off", "COFF 3 1 0\n0 0 0 255 0 0\n1 0 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n"));
+  EXPECT_EQ(h.polygons, (std::vector<std::vector<int>>{{0, 1, 2}}));
+}
+
+TEST_F(MeshIo, ObjFaceVertexFormsAreRead) {
+  const PolygonMesh m = arap::io::read_mesh(write(
+      "forms.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1/1 2//1 3/1 # c\nf -4 -2 -1\n"));
+  EXPECT_EQ(m.polygons, (std::vector<std::vector<int>>{{0, 1, 2}, {0, 2, 3}}));
 }
 
 TEST_F(MeshIo, MissingFileAndDirectoryAreErrors) {

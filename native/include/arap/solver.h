@@ -89,7 +89,8 @@ class Solver {
   // ARAP energy of `positions` with the optimal rotation of every cell and the
   // weights in use: sum_i s_i sum_j w_ij |(p'_i - p'_j) - R_i (p_i - p_j)|^2.
   double energy(const Eigen::Ref<const Points>& positions) const;
-  // Its gradient with respect to every vertex position (#V by 3):
+  // Its gradient with respect to every vertex position (#V by 3); throws
+  // arap::Error(NonFinite) when that is beyond the double range (coordinates near 1e308):
   // dE/dp'_i = 2 sum_j w_ij (s_i + s_j)(p'_i - p'_j) - 2 sum_j w_ij (s_i R_i + s_j R_j)(p_i - p_j).
   Points energy_gradient(const Eigen::Ref<const Points>& positions) const;
 
