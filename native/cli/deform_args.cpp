@@ -87,6 +87,7 @@ Eigen::Vector3d parse_vector(const std::string& flag, const std::string& s) {
 
 DeformArgs parse_deform_args(int argc, const char* const* argv) {
   DeformArgs a;
+  bool method_given = false, anderson_given = false;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     auto value = [&]() -> std::string {
@@ -129,8 +130,12 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
       a.options.weights = parse_weights(value());
     } else if (arg == "--threads") {
       a.options.threads = parse_int(arg, value(), 1);
+    } else if (arg == "--method") {
+      a.options.method = parse_method(value());
+      method_given = true;
     } else if (arg == "--anderson") {
       a.options.anderson_window = parse_int(arg, value(), 0);
+      anderson_given = true;
     } else if (arg == "--output" || arg == "-o") {
       a.output = value();
     } else if (arg == "--report") {
@@ -145,6 +150,10 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
     }
   }
   if (a.help) return a;
+  // --anderson M alone keeps its old meaning: the Anderson-accelerated alternation.
+  if (anderson_given && !method_given) a.options.method = Method::Anderson;
+  if (anderson_given && a.options.method != Method::Anderson)
+    throw UsageError("--anderson applies to --method anderson only");
   if (a.scenario.empty() == a.input.empty()) throw UsageError("give either --scenario S.json or an INPUT mesh");
   if (!a.scenario.empty() && (!a.fixed_file.empty() || !a.handles.empty()))
     throw UsageError("--fixed/--handle cannot be combined with --scenario");
