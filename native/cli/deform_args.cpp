@@ -31,13 +31,28 @@ Inputs:
   A vertex that is both fixed and in a handle stays FIXED (fixed wins; a
   warning is printed). A vertex in two handles is an error.
 
-Solver options:
-  --iterations N        local/global iterations (default 10)
-  --tolerance T         stop when the energy drops by <= T * E (default 1e-6; 0 = never)
+Solver options (the defaults solve until the pose has settled):
+  --method NAME         how the energy is minimised:
+                          quasi-newton  L-BFGS with the factored Laplacian as its
+                                        first Hessian and a line search (Liu et
+                                        al. 2017): the default, 4-5x less CPU to
+                                        the same minimum than local-global
+                          local-global  the textbook alternation of Sorkine &
+                                        Alexa 2007, one local and one global step
+                                        per iteration
+                          anderson      local-global with Anderson acceleration
+                                        (Peng et al. 2018), window --anderson M
+  --iterations N        safety cap on the iterations (default 1000); a solve that
+                        reaches it says so on stderr
+  --tolerance T         stop when an iteration lowers the energy by <= T * E
+                        (default 1e-6; 0 = run until the energy stops falling
+                        or the cap)
   --init NAME           first guess: differential | naive | laplacian (default naive)
   --weights NAME        cotan | cotan-clamped | uniform (default cotan-clamped)
   --threads K           worker threads (default 1)
-  --anderson M          Anderson acceleration window (default 0 = off)
+  --anderson M          Anderson window (default 5); alone it implies --method anderson
+  The textbook iteration of the paper, e.g. to compare energies with other
+  implementations: --method local-global --iterations N --tolerance 0.
 
 Output:
   --output OUT          result mesh (.off .obj .ply), same faces as the input
