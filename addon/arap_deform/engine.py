@@ -17,6 +17,7 @@ from .constraints import SetupError
 
 WEIGHT_NAMES = {'COTAN': "cotan", 'COTAN_CLAMPED': "cotan-clamped", 'UNIFORM': "uniform"}
 INIT_NAMES = {'LAPLACIAN': "laplacian", 'DIFFERENTIAL': "differential", 'NAIVE': "naive"}
+METHOD_NAMES = {'QUASI_NEWTON': "quasi-newton", 'LOCAL_GLOBAL': "local-global", 'ANDERSON': "anderson"}
 
 _native = None
 
@@ -195,7 +196,9 @@ def deform(obj, scene=None, iterations=None, tolerance=None, init=None):
     solver.max_iterations = iterations if iterations else s.iterations
     solver.tolerance = s.tolerance if tolerance is None else tolerance
     solver.init = INIT_NAMES[init or s.init]
+    solver.method = METHOD_NAMES[s.method]
     solver.anderson_window = s.acceleration
+    solver.time_budget_ms = 0.0
     solver.threads = s.threads
     result32 = np.empty(len(problem.rest32), np.float32)
     t1 = time.perf_counter()
@@ -298,6 +301,11 @@ _sessions = set()
 class LiveSession:
     """Bind once, then step(): read empties, solve warm-started, write.
 
+    Each step spends at most the frame budget (live_frame_ms) on iterations, so
+    the viewport stays interactive while a handle moves. When nothing moved,
+    step() goes on from where the last one stopped (the quasi-Newton history is
+    kept) until the pose has settled (the tolerance); then, until something
+    moves again, step(force=False) does nothing and returns None: Live sleeps.
     The modal operator is a thin shell around this; scripts and tests drive
     it directly. cancel() restores the snapshot taken at start bit for bit.
     """
@@ -318,7 +326,9 @@ class LiveSession:
         self.solver.tolerance = s.tolerance
         self.solver.cold_start = INIT_NAMES[s.init]
         self.solver.init = "warm"
+        self.solver.method = METHOD_NAMES[s.method]
         self.solver.anderson_window = s.acceleration
+        self.solver.time_budget_ms = s.live_frame_ms
         self.solver.threads = s.threads
         self.buffer = np.empty(len(self.problem.rest32), np.float32)
         self.write_enabled = write
@@ -351,9 +361,14 @@ class LiveSession:
         if mode != 'OBJECT':
             raise SessionError("'%s' left Object Mode: Live stopped" % obj.name, 'MODE')
 
+    @property
+    def settled(self):
+        """The last step converged and nothing has been seen moving since."""
+        return self.converged
+
     def step(self, force=True):
         """One update; with force=False returns None when the empties and the
-        object did not move and the last solve had converged."""
+        object did not move and the last solve had converged (settled)."""
         self.check()
         t0 = time.perf_counter()
         try:

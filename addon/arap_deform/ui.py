@@ -70,12 +70,15 @@ class ARAP_PT_main(bpy.types.Panel):
         box.prop_search(s, "stiff_group", obj, "vertex_groups", text="Stiff")
         if s.stiff_group:
             box.prop(s, "stiffness")
+        box.prop(s, "method")
         box.prop(s, "iterations")
         box.prop(s, "live_iterations")
+        box.prop(s, "live_frame_ms")
         box.prop(s, "tolerance")
         box.prop(s, "weights")
         box.prop(s, "init")
-        box.prop(s, "acceleration")
+        if s.method == 'ANDERSON':
+            box.prop(s, "acceleration")
         box.prop(s, "threads")
         box.prop(s, "output")
 

@@ -31,6 +31,8 @@ void check_options(const Options& o) {
     throw Error(ErrorCode::InvalidInput, "unknown method");
   if (o.anderson_window < 0 || o.anderson_window > 20)
     throw Error(ErrorCode::InvalidInput, "anderson window must be between 0 and 20");
+  if (!(o.time_budget_ms >= 0) || !std::isfinite(o.time_budget_ms))
+    throw Error(ErrorCode::InvalidInput, "the time budget must be a finite number of milliseconds >= 0");
   if (o.cold_start == InitialGuess::WarmStart)
     throw Error(ErrorCode::InvalidInput, "the cold-start guess cannot itself be a warm start");
 }
@@ -74,6 +76,11 @@ struct Solver::Impl {
   std::vector<double> free_before, free_after, free_next;  // #free by 3 each, for Anderson
   LbfgsHistory lbfgs;
   std::vector<double> qn_x, qn_g, qn_d;  // #free by 3 each, for the quasi-Newton method
+  // The last solve was quasi-Newton and nothing touched its state since: a warm
+  // solve with the same targets continues from qn_x, qn_g, qn_energy and the history.
+  bool qn_resumable = false;
+  double qn_energy = 0;
+  Points last_targets;
 
   void gather_free(std::vector<double>& out) const {
     for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
@@ -307,7 +314,8 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
   stats.iteration_ms.reserve(s.options.max_iterations);
   s.state_backup = s.state;  // same size every solve: no allocation; restored if anything below goes wrong
   try {
-    auto t = Clock::now();
+    const auto solve_start = Clock::now();
+    auto t = solve_start;
     InitialGuess guess = s.options.init;
     if (guess == InitialGuess::WarmStart && !s.has_solution) guess = s.options.cold_start;
     // A warm start keeps the rotations of the last solution for its first global step.
@@ -320,7 +328,12 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
 
     const bool quasi_newton = s.options.method == Method::QuasiNewton;
     double previous_energy = std::numeric_limits<double>::quiet_NaN();
-    if (quasi_newton) {
+    const bool resume = quasi_newton && guess == InitialGuess::WarmStart && s.qn_resumable &&
+                        s.last_targets.rows() == targets.rows() && s.last_targets == targets;
+    s.qn_resumable = false;  // until this solve ends well
+    if (resume) {
+      previous_energy = stats.initial_energy = s.qn_energy;
+    } else if (quasi_newton) {
       // It starts from a point with known energy and gradient. A warm start first
       // carries the moved targets through the mesh with one global step on the
       // last rotations (as the plain iteration's first step does).
@@ -348,6 +361,7 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
         break;
       }
       previous_energy = e;
+      if (s.options.time_budget_ms > 0 && ms_since(solve_start) >= s.options.time_budget_ms) break;
     }
     if (!s.state.allFinite())
       throw Error(ErrorCode::NonFinite, "the solve produced non-finite positions (the mesh was left unchanged)");
@@ -358,6 +372,11 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
   }
   to_input(s.mesh, s.state, s.positions);
   s.has_solution = true;
+  if (s.options.method == Method::QuasiNewton) {
+    s.qn_resumable = true;
+    s.qn_energy = stats.energy.empty() ? stats.initial_energy : stats.energy.back();
+    s.last_targets = targets;
+  }
   return stats;
 }
 
@@ -374,6 +393,7 @@ void Solver::set_positions(const Eigen::Ref<const Points>& positions) {
   to_internal(s.mesh, positions, s.state);
   s.has_solution = true;
   s.rotations_valid = false;
+  s.qn_resumable = false;
 }
 
 Options& Solver::options() { return impl_->options; }

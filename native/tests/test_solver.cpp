@@ -169,6 +169,43 @@ TEST(QuasiNewton, EmptyHistoryStepIsTheLocalGlobalStep) {
   EXPECT_NEAR(q.energy[0], p.energy[0], 1e-9 * p.energy[0]);
 }
 
+TEST(QuasiNewton, AWarmSolveWithTheSameTargetsResumesWhereTheLastStopped) {
+  // 12 iterations in one solve, or 5 and then 7 warm: the same arithmetic, bit for bit.
+  const BentTube t;
+  arap::Solver once, split;
+  once.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 12));
+  split.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 5));
+  const auto whole = once.solve(t.targets);
+  split.solve(t.targets);
+  split.options().init = arap::InitialGuess::WarmStart;
+  split.options().max_iterations = 7;
+  const auto rest = split.solve(t.targets);
+  EXPECT_EQ(split.positions(), once.positions());
+  EXPECT_EQ(rest.energy.back(), whole.energy.back());
+  EXPECT_EQ(rest.initial_energy, whole.energy[4]);
+  // New targets start afresh from the warm positions instead (a global step, then a new history).
+  const BentTube moved(2.6);
+  const auto next = split.solve(moved.targets);
+  EXPECT_NE(next.initial_energy, rest.energy.back());
+}
+
+TEST(Solver, TimeBudgetStopsAfterTheIterationThatSpendsIt) {
+  const BentTube t;
+  for (auto method : kMethods) {
+    arap::Options o = options_with(arap::InitialGuess::Naive, 500, 1e-12, method);
+    o.time_budget_ms = 1e-9;
+    arap::Solver solver;
+    solver.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+    const auto stats = solver.solve(t.targets);
+    EXPECT_EQ(stats.iterations, 1) << arap::to_string(method);
+    EXPECT_FALSE(stats.converged);
+  }
+  arap::Solver solver;
+  arap::Options bad;
+  bad.time_budget_ms = -1;
+  EXPECT_THROW(solver.bind(t.mesh.V, t.mesh.F, t.constrained, bad), arap::Error);
+}
+
 TEST(Solver, GradientMatchesFiniteDifferencesOfTheEnergy) {
   const BentTube t;
   arap::Solver solver;

@@ -43,6 +43,9 @@ struct Options {
   int threads = 1;
   // Anderson acceleration window (Peng et al. 2018) of Method::Anderson; 0 = plain local/global.
   int anderson_window = 5;
+  // Stop after the iteration that passes this many milliseconds of solve()
+  // (e.g. a viewport frame); the result is then not `converged`. 0 = no limit.
+  double time_budget_ms = 0;
 };
 
 // Parse / print the names used on the command line and in Python ("cotan-clamped").

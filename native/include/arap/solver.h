@@ -68,7 +68,10 @@ class Solver {
   // options().method from options().init until the energy falls by at most
   // options().tolerance relative in an iteration (stats.converged) or
   // options().max_iterations is reached, and leaves the result in positions().
-  // The energy never increases from one iteration to the next. Never leaves NaN in positions(): on a non-finite
+  // The energy never increases from one iteration to the next. A warm start
+  // (options().init == WarmStart) with the same targets as the last solve
+  // resumes the quasi-Newton iteration where that solve stopped (history
+  // included), so a solve cut short by time_budget_ms loses nothing. Never leaves NaN in positions(): on a non-finite
   // target it throws before touching them.
   SolveStats solve(const Eigen::Ref<const Points>& targets);
 
