@@ -80,6 +80,8 @@ struct Solver::Impl {
   // solve with the same targets continues from qn_x, qn_g, qn_energy and the history.
   bool qn_resumable = false;
   double qn_energy = 0;
+  bool qn_plain = false;       // qn_d is the plain step
+  bool qn_small_step = false;  // the last step lowered the energy by at most the tolerance
   Points last_targets;
 
   void gather_free(std::vector<double>& out) const {
@@ -118,6 +120,7 @@ struct Solver::Impl {
     qn_x.resize(nf3), qn_g.resize(nf3), qn_d.resize(nf3);
     lbfgs.reset(kQuasiNewtonHistory, static_cast<Eigen::Index>(nf3));
     gather_free(qn_x);
+    qn_small_step = false;
     const auto t = Clock::now();
     half_gradient(mesh, state.data(), rotations.data(), qn_g.data(), options.threads);
     stats.direction_ms += ms_since(t);
@@ -141,29 +144,39 @@ struct Solver::Impl {
     return local(stats);
   }
 
-  // One quasi-Newton iteration from qn_x (energy `energy`, half gradient qn_g):
-  // the L-BFGS direction with the Laplacian as H0, a backtracking line search
-  // on the Armijo condition, and, when that fails or the direction does not
-  // descend, the plain local/global step (which always lowers the energy:
-  // the global step minimises the quadratic with the rotations fixed, the
-  // local step then lowers it further). Returns the new energy.
-  double quasi_newton_iterate(double energy, SolveStats& stats) {
-    auto t = Clock::now();
+  // The L-BFGS direction from qn_x with the Laplacian as H0 into qn_d, or the
+  // plain local/global step when it does not descend (history dropped).
+  // Returns the slope dE/dalpha at alpha = 0 (negative). -slope / 2 is the
+  // decrease the quadratic model predicts for the step.
+  double quasi_newton_direction(SolveStats& stats) {
+    const auto t = Clock::now();
     double solve_ms = 0;
     double slope = 2 * lbfgs.direction(qn_g.data(), qn_d.data(), [&](double* v) {
       const auto ts = Clock::now();
       laplacian.solve_in_place(v, work);
       solve_ms += ms_since(ts);
-    });  // dE/dalpha at alpha = 0
+    });
     stats.linear_solve_ms += solve_ms;
     stats.direction_ms += ms_since(t) - solve_ms;
-    bool plain = lbfgs.stored() == 0;
-    if (!(slope < 0) && !plain) {
+    qn_plain = lbfgs.stored() == 0;
+    if (!(slope < 0) && !qn_plain) {
       ++stats.quasi_newton_resets;
       lbfgs.clear();
       slope = plain_direction(stats);
-      plain = true;
+      qn_plain = true;
     }
+    return slope;
+  }
+
+  // The step along qn_d from qn_x (energy `energy`, half gradient qn_g): a
+  // backtracking line search on the Armijo condition and, when that fails,
+  // the plain local/global step (which always lowers the energy: the global
+  // step minimises the quadratic with the rotations fixed, the local step
+  // then lowers it further). Returns the new energy; `stuck` when not even
+  // that lowered it (a stationary point to rounding: the point is kept).
+  double quasi_newton_step(double energy, double slope, bool& stuck, SolveStats& stats) {
+    stuck = false;
+    bool plain = qn_plain;
     double alpha = 1, next = trial(alpha, stats);
     for (int k = 1; k < kLineSearchTrials && !plain && !(next <= energy + kArmijo * alpha * slope); ++k) {
       // Minimum of the parabola through E(0), E'(0) and E(alpha), kept in [alpha / 10, alpha / 2].
@@ -184,10 +197,11 @@ struct Solver::Impl {
       // Only at a stationary point to rounding: stay where we were.
       scatter_free(qn_x);
       local(stats);
+      stuck = true;
       return energy;
     }
     // Accepted: s = alpha d, x += s, y = g_new - g, g = g_new, written straight into the history.
-    t = Clock::now();
+    const auto t = Clock::now();
     double* s = lbfgs.next_s();
     double* y = lbfgs.next_y();
     half_gradient(mesh, state.data(), rotations.data(), y, options.threads);
@@ -350,16 +364,31 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       s.free_before.resize(nf3), s.free_after.resize(nf3), s.free_next.resize(nf3);
       s.anderson.reset(s.options.anderson_window, static_cast<Eigen::Index>(nf3));
     }
+    const double tolerance = s.options.tolerance;
     for (int it = 0; it < s.options.max_iterations; ++it) {
       t = Clock::now();
-      const double e = quasi_newton ? s.quasi_newton_iterate(previous_energy, stats) : s.iterate(previous_energy, stats);
+      double e;
+      if (quasi_newton) {
+        // Settled when the last step lowered the energy by at most the tolerance and
+        // the next one is predicted to lower it by no more (a small step alone can be
+        // a short line-search step far from the minimum).
+        const double slope = s.quasi_newton_direction(stats);
+        if (s.qn_small_step && -0.5 * slope <= tolerance * std::abs(previous_energy)) {
+          stats.converged = true;
+          break;
+        }
+        bool stuck = false;
+        e = s.quasi_newton_step(previous_energy, slope, stuck, stats);
+        s.qn_small_step = previous_energy - e <= tolerance * std::abs(previous_energy);
+        stats.converged = stuck;
+      } else {
+        e = s.iterate(previous_energy, stats);
+        stats.converged = std::isfinite(previous_energy) && previous_energy - e <= tolerance * std::abs(previous_energy);
+      }
       stats.iteration_ms.push_back(ms_since(t));
       stats.energy.push_back(e);
       stats.iterations = it + 1;
-      if (std::isfinite(previous_energy) && previous_energy - e <= s.options.tolerance * std::abs(previous_energy)) {
-        stats.converged = true;
-        break;
-      }
+      if (stats.converged) break;
       previous_energy = e;
       if (s.options.time_budget_ms > 0 && ms_since(solve_start) >= s.options.time_budget_ms) break;
     }
