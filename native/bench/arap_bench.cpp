@@ -472,7 +472,7 @@ void write_band_results(const json& doc, const std::filesystem::path& dir) {
      << " iterations (each stops early only once its energy no longer moves, relative change <= 1e-14); the band "
         "is E <= E* + 1e-3 |E*|. Cells: iterations to the band / median CPU ms (CLOCK_THREAD_CPUTIME_ID) of 3 cold "
         "solves that run exactly that many iterations (bind excluded); \"> t\": not in the band within the budget, "
-        "t = the budget's time. CGAL: the sum of its deform(1, 0) calls' CPU time (one run). Defaults: "
+        "t = the budget's CPU time (the reference run). CGAL: the sum of its deform(1, 0) calls' CPU time (one run). Defaults: "
         "quasi-newton with the library's default tolerance (1e-6) and cap.\n\n"
      << bench::band_table(doc["meshes"]);
 }

@@ -130,7 +130,7 @@ struct Solver::Impl {
   double plain_direction(SolveStats& stats) {
     const auto t = Clock::now();
     for (size_t k = 0; k < qn_d.size(); ++k) qn_d[k] = -qn_g[k];
-    laplacian.solve_in_place(qn_d.data(), work);
+    laplacian.solve_in_place(qn_d.data(), work, options.threads);
     stats.linear_solve_ms += ms_since(t);
     return 2 * dot(qn_g, qn_d);
   }
@@ -153,7 +153,7 @@ struct Solver::Impl {
     double solve_ms = 0;
     double slope = 2 * lbfgs.direction(qn_g.data(), qn_d.data(), [&](double* v) {
       const auto ts = Clock::now();
-      laplacian.solve_in_place(v, work);
+      laplacian.solve_in_place(v, work, options.threads);
       solve_ms += ms_since(ts);
     });
     stats.linear_solve_ms += solve_ms;
@@ -251,7 +251,7 @@ struct Solver::Impl {
     assemble_rhs(mesh, rotations.data(), coupled.data(), rhs.data(), options.threads);
     stats.rhs_ms += ms_since(t);
     t = Clock::now();
-    laplacian.solve_in_place(rhs.data(), work);
+    laplacian.solve_in_place(rhs.data(), work, options.threads);
     for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
       state.row(mesh.free_vertices[r]) << rhs[3 * r], rhs[3 * r + 1], rhs[3 * r + 2];
     stats.linear_solve_ms += ms_since(t);

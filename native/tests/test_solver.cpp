@@ -279,6 +279,33 @@ TEST(Solver, ResultsAreDeterministicAndIndependentOfThreads) {
   }
 }
 
+TEST(Solver, LargeMeshesSolveTheSameOnOneOrTwoThreadsAndMatchTheTextbook) {
+  // 22,400 vertices: above the size at which the factor is split in two halves and a separator.
+  const auto mesh = arap_test::tube(160, 140, 20.0);
+  const std::vector<int> constrained = concat(ring_vertices(160, 0), ring_vertices(160, 139));
+  arap::Points targets = rows_of(mesh.V, constrained);
+  for (int k = 160; k < 320; ++k) targets(k, 0) += 6.0;
+  arap::Points first;
+  for (int threads : {1, 2}) {
+    arap::Options o = options_with(arap::InitialGuess::Naive, 4, 0, arap::Method::LocalGlobal);
+    o.threads = threads;
+    arap::Solver solver;
+    solver.bind(mesh.V, mesh.F, constrained, o);
+    const auto stats = solver.solve(targets);
+    if (threads == 1) {
+      first = solver.positions();
+      arap_test::ReferenceArap reference(mesh.V, mesh.F, constrained, arap::Weights::CotanClamped);
+      arap::Points P = mesh.V;
+      for (size_t k = 0; k < constrained.size(); ++k) P.row(constrained[k]) = targets.row(k);
+      const auto expected = reference.run(P, 4);
+      for (int k = 0; k < 4; ++k) EXPECT_NEAR(stats.energy[k], expected[k], 1e-9 * expected[0]);
+      EXPECT_LT((solver.positions() - P).cwiseAbs().maxCoeff(), 1e-8);
+    } else {
+      EXPECT_EQ(solver.positions(), first);
+    }
+  }
+}
+
 TEST(Solver, RepeatedColdSolvesAreBitIdentical) {
   const BentTube t;
   arap::Solver solver;
