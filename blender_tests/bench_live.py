@@ -121,15 +121,21 @@ def move(empty, start, dx):
     empty.location = start + Vector((dx, 0.0, 0.0))
 
 
-def bench_ours(api, vertices, frames, iterations):
-    obj, fixed, top, h = make_tube("ArapTube", vertices)
+def posed_tube(api, name, vertices):
+    """The tube with its ARAP set-up: bottom fifth fixed, top 5 % on an Empty at the top centre."""
+    obj, fixed, top, h = make_tube(name + "Tube", vertices)
     add_group(obj, "fixed", fixed)
     add_group(obj, "top", top)
     start = Vector((0.0, 0.0, h))
-    empty = add_empty("ArapHandle", start)
+    empty = add_empty(name + "Handle", start)
     bpy.context.view_layer.update()
     api.set_fixed(obj, "fixed")
     api.add_handle(obj, "top", empty)
+    return obj, empty, start, h
+
+
+def bench_ours(api, vertices, frames, iterations):
+    obj, empty, start, h = posed_tube(api, "Arap", vertices)
     t = time.perf_counter()
     session = api.start_session(obj, bpy.context.scene, iterations=iterations)
     bind_ms = (time.perf_counter() - t) * 1e3
@@ -147,14 +153,7 @@ def bench_ours(api, vertices, frames, iterations):
 
 
 def bench_settle(api, vertices, drag_updates=10, timer_interval_ms=1000.0 / 30.0):
-    obj, fixed, top, h = make_tube("SettleTube", vertices)
-    add_group(obj, "fixed", fixed)
-    add_group(obj, "top", top)
-    start = Vector((0.0, 0.0, h))
-    empty = add_empty("SettleHandle", start)
-    bpy.context.view_layer.update()
-    api.set_fixed(obj, "fixed")
-    api.add_handle(obj, "top", empty)
+    obj, empty, start, h = posed_tube(api, "Settle", vertices)
     session = api.start_session(obj, bpy.context.scene)  # the object's (default) Live settings
     session.step()
     while session.step(force=False) is not None:  # settle at rest first

@@ -255,12 +255,25 @@ TEST(Solver, WarmStartNeedsFewerIterationsThanColdStartForASmallMove) {
   }
 }
 
+// A tube of `around` x `rings` vertices, bottom ring fixed, top ring moved by `shift` along `axis`.
+struct LongTube {
+  arap_test::Mesh mesh;
+  std::vector<int> constrained;
+  arap::Points targets;
+  LongTube(int around, int rings, double height, int axis, double shift)
+      : mesh(arap_test::tube(around, rings, height)),
+        constrained(concat(ring_vertices(around, 0), ring_vertices(around, rings - 1))),
+        targets(rows_of(mesh.V, constrained)) {
+    for (int k = around; k < 2 * around; ++k) targets(k, axis) += shift;
+  }
+};
+
 TEST(Solver, ResultsAreDeterministicAndIndependentOfThreads) {
   // Large enough (4800 vertices) that two threads really run.
-  const auto mesh = arap_test::tube(80, 60, 6.0);
-  const std::vector<int> constrained = concat(ring_vertices(80, 0), ring_vertices(80, 59));
-  arap::Points targets = rows_of(mesh.V, constrained);
-  for (int k = 80; k < 160; ++k) targets(k, 1) += 2.0;
+  const LongTube t(80, 60, 6.0, 1, 2.0);
+  const auto& mesh = t.mesh;
+  const auto& constrained = t.constrained;
+  const auto& targets = t.targets;
   arap::Points first;
   std::vector<double> first_energy;
   for (int threads : {1, 2, 1}) {
@@ -281,10 +294,10 @@ TEST(Solver, ResultsAreDeterministicAndIndependentOfThreads) {
 
 TEST(Solver, LargeMeshesSolveTheSameOnOneOrTwoThreadsAndMatchTheTextbook) {
   // 22,400 vertices: above the size at which the factor is split in two halves and a separator.
-  const auto mesh = arap_test::tube(160, 140, 20.0);
-  const std::vector<int> constrained = concat(ring_vertices(160, 0), ring_vertices(160, 139));
-  arap::Points targets = rows_of(mesh.V, constrained);
-  for (int k = 160; k < 320; ++k) targets(k, 0) += 6.0;
+  const LongTube t(160, 140, 20.0, 0, 6.0);
+  const auto& mesh = t.mesh;
+  const auto& constrained = t.constrained;
+  const auto& targets = t.targets;
   arap::Points first;
   for (int threads : {1, 2}) {
     arap::Options o = options_with(arap::InitialGuess::Naive, 4, 0, arap::Method::LocalGlobal);
