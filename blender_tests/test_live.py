@@ -111,6 +111,13 @@ class Live(unittest.TestCase):
         self.obj.arap.live_frame_ms = 5.0
         s = api.start_session(self.obj, bpy.context.scene)
         self.assertEqual(s.solver.method, "local-global")
+        s.step()
+        self.assertEqual(s.solver.time_budget_ms, 5.0)  # the first update is a move
+        if not s.settled:
+            s.step()  # nothing moved: a settling update
+            self.assertEqual(s.solver.time_budget_ms, 5.0 * engine.SETTLE_BUDGET_FACTOR)
+        move(self.empty, dx=0.2)
+        s.step()
         self.assertEqual(s.solver.time_budget_ms, 5.0)
         s.cancel()
 
