@@ -20,6 +20,31 @@ def disable_addon():
     addon_utils.disable(ADDON_MODULE, default_set=True)
 
 
+def run_blender_args(args, factory_startup=True, timeout=240):
+    """Run a new `blender --background <args>` in this test's environment (the
+    same user folders: the add-on is installed, and not enabled unless asked);
+    returns its output, fails on a non-zero exit or a traceback."""
+    import subprocess
+    cmd = [bpy.app.binary_path, "--background", "-noaudio", "--python-exit-code", "1"]
+    cmd += ["--factory-startup"] if factory_startup else []
+    proc = subprocess.run(cmd + list(args), capture_output=True, text=True, timeout=timeout)
+    out = proc.stdout + proc.stderr
+    if proc.returncode != 0 or "Traceback" in out:
+        raise AssertionError("%s failed (exit %d):\n%s" % (" ".join(args), proc.returncode, out[-3000:]))
+    return out
+
+
+def run_blender_script(script, factory_startup=True, timeout=240):
+    """run_blender_args with a Python script given as text."""
+    import tempfile
+    with tempfile.NamedTemporaryFile("w", suffix=".py", delete=False) as f:
+        f.write(script)
+    try:
+        return run_blender_args(["--python", f.name], factory_startup, timeout)
+    finally:
+        os.remove(f.name)
+
+
 def clear_scene():
     """Remove every object and mesh (the add-on stays enabled)."""
     for ob in list(bpy.data.objects):

@@ -49,6 +49,12 @@ class Lifecycle:
         shutil.rmtree(root, ignore_errors=True)
         os.makedirs(root)
         env = dict(os.environ)
+        # A pyenv/virtualenv Python first on PATH (or PYTHONHOME/PYTHONPATH) can make
+        # Blender's embedded Python pick the wrong prefix and miss numpy.
+        env["PATH"] = os.pathsep.join(p for p in env.get("PATH", "").split(os.pathsep)
+                                      if "pyenv" not in p and "virtualenv" not in p)
+        for name in ("PYTHONHOME", "PYTHONPATH", "VIRTUAL_ENV"):
+            env.pop(name, None)
         env.update({"BLENDER_USER_RESOURCES": root,
                     "BLENDER_USER_CONFIG": os.path.join(root, "config"),
                     "BLENDER_USER_SCRIPTS": os.path.join(root, "scripts"),

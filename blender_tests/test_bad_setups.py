@@ -61,7 +61,10 @@ class BadSetups(unittest.TestCase):
         self.assert_deform_error("no vertex group")
 
     def test_non_mesh_active(self):
-        bpy.context.view_layer.objects.active = self.empty
+        # (An active handle Empty stands for its mesh: test_handles.PanelAndRedo.)
+        other = bpy.data.objects.new("NotAHandle", None)
+        bpy.context.scene.collection.objects.link(other)
+        bpy.context.view_layer.objects.active = other
         self.assert_deform_error("mesh object")
 
     def test_no_active_object(self):

@@ -170,6 +170,61 @@ class Bake(unittest.TestCase):
             self.assert_rest_untouched()
         self.assertEqual(os.listdir(self.tmp), [])  # the streamed .pc2 temporary file is gone
 
+    def test_interactive_bake_shows_frames_then_writes_the_bake(self):
+        # What the modal operator runs each tick: every solved frame is shown on
+        # the mesh, the status bar draws the progress, and the result equals a
+        # synchronous bake's (the preview is undone before writing).
+        run = bake_ops.InteractiveBake(bake.Baker(self.obj, 1, 4))
+        self.assertIs(bake_ops.InteractiveBake.current, run)
+        shown = []
+        while not run.step():
+            shown.append(U.raw_coords(self.obj).copy())
+            self.assertIn("of 4", run.status())
+        self.assertEqual(len(shown), 3)
+        np.testing.assert_array_equal(shown[-1], run.baker.positions[2].ravel())
+        self.assertGreater(np.abs(shown[-1] - self.rest).max(), 0.1)  # the viewport shows the pose
+        self.assertEqual(run.fraction, 1.0)
+        result = run.finish(lambda baker: baker.write_shape_keys())
+        self.assertIsNone(bake_ops.InteractiveBake.current)
+        self.assert_rest_untouched()
+        reference = bake.bake_shape_keys(self.obj, 1, 4)
+        np.testing.assert_array_equal(result.positions, reference.positions)
+
+    def test_interactive_bake_cancel_restores_the_mesh(self):
+        run = bake_ops.InteractiveBake(bake.Baker(self.obj, 1, 10))
+        run.step()
+        run.step()
+        self.assertFalse(np.array_equal(U.raw_coords(self.obj), self.rest))
+        run.cancel()
+        self.assertIsNone(bake_ops.InteractiveBake.current)
+        self.assertIsNone(self.obj.data.shape_keys)
+        self.assertEqual(bpy.context.scene.frame_current, 1)
+        self.assert_rest_untouched()
+        self.assertFalse(self.obj.data.attributes.get("arap_rest"))
+
+    def test_status_bar_draws_a_progress_bar(self):
+        class Layout:  # records what draw_status_bar asks of the status bar's layout
+            def __init__(self):
+                self.calls = []
+
+            def progress(self, **kw):
+                self.calls.append(("progress", kw))
+
+            def label(self, **kw):
+                self.calls.append(("label", kw))
+
+        header = type("Header", (), {"layout": Layout()})()
+        bake_ops.draw_status_bar(header, bpy.context)
+        self.assertEqual(header.layout.calls, [])  # nothing while no bake runs
+        run = bake_ops.InteractiveBake(bake.Baker(self.obj, 1, 4))
+        run.step()
+        bake_ops.draw_status_bar(header, bpy.context)
+        kind, kw = header.layout.calls[-1]
+        self.assertEqual(kind, "progress")
+        self.assertAlmostEqual(kw["factor"], 0.25)
+        self.assertIn("Esc", kw["text"])
+        run.cancel()
+
     def test_deleted_empty_is_a_setup_error(self):
         bpy.data.objects.remove(self.empty)
         with self.assertRaises(SetupError):

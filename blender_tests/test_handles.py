@@ -68,8 +68,33 @@ class HandlesFromSelection(unittest.TestCase):
         select_in_edit_mode(self.obj, lambda co: False)
         with self.assertRaises(RuntimeError) as cm:
             bpy.ops.object.arap_add_handle_from_selection()
-        self.assertIn("Select the vertices", str(cm.exception))
+        self.assertIn("No vertex is selected", str(cm.exception))
         self.assertEqual(len(self.obj.vertex_groups), 0)
+
+    def test_set_fixed_and_add_handle_work_in_object_mode(self):
+        # The buttons act on the mesh's stored vertex selection in Object Mode too.
+        bottom = select_in_edit_mode(self.obj, lambda co: co.z < -1.5)
+        bpy.ops.object.mode_set(mode='OBJECT')
+        self.assertEqual(bpy.ops.object.arap_set_fixed_from_selection(), {'FINISHED'})
+        g = self.obj.vertex_groups[self.obj.arap.fixed_group]
+        self.assertEqual(sorted(v.index for v in self.obj.data.vertices for e in v.groups if e.group == g.index),
+                         bottom)
+        bpy.ops.object.mode_set(mode='EDIT')
+        top = select_in_edit_mode(self.obj, lambda co: co.z > 1.5)
+        bpy.ops.object.mode_set(mode='OBJECT')
+        self.assertEqual(bpy.ops.object.arap_add_handle_from_selection(), {'FINISHED'})
+        h = self.obj.arap.handles[0]
+        members = sorted(v.index for v in self.obj.data.vertices
+                         for e in v.groups if e.group == self.obj.vertex_groups[h.group].index)
+        self.assertEqual(members, top)
+        world = self.obj.matrix_world @ Vector(U.coords(self.obj)[top].mean(axis=0))
+        self.assertLess((h.empty.matrix_world.translation - world).length, 1e-5)
+        # Set Fixed again replaces the group's members.
+        for v in self.obj.data.vertices:
+            v.select = v.index == bottom[0]
+        bpy.ops.object.arap_set_fixed_from_selection()
+        self.assertEqual([v.index for v in self.obj.data.vertices for e in v.groups if e.group == g.index],
+                         [bottom[0]])
 
     def test_full_workflow_from_operators(self):
         select_in_edit_mode(self.obj, lambda co: co.z < -1.5)
@@ -94,3 +119,42 @@ class HandlesFromSelection(unittest.TestCase):
         self.assertEqual(len(self.obj.arap.handles), 1)
         api.remove_handle(self.obj, 0)
         self.assertEqual(len(self.obj.arap.handles), 0)
+
+
+class PanelAndRedo(unittest.TestCase):
+    def setUp(self):
+        U.clear_scene()
+        self.obj, self.empty, self.fixed, self.top = U.bar_with_handle()
+
+    def test_an_active_handle_empty_keeps_the_mesh_panel(self):
+        from arap_deform import engine, ui
+        bpy.context.view_layer.objects.active = self.empty
+        self.assertIs(engine.target_mesh(bpy.context), self.obj)
+        self.assertTrue(ui.ARAP_PT_main.poll(bpy.context))
+        # ... and the panel's buttons act on that mesh.
+        rest = U.coords(self.obj)
+        self.empty.location.x += 0.5
+        self.assertEqual(bpy.ops.object.arap_deform(), {'FINISHED'})
+        self.assertGreater(np.abs(U.coords(self.obj) - rest).max(), 0.1)
+        other = bpy.data.objects.new("Unrelated", None)
+        bpy.context.scene.collection.objects.link(other)
+        bpy.context.view_layer.objects.active = other
+        self.assertIsNone(engine.target_mesh(bpy.context))
+        self.assertFalse(ui.ARAP_PT_main.poll(bpy.context))
+
+    def test_solver_settings_in_a_collapsed_sub_panel_with_plain_tooltips(self):
+        from arap_deform import properties, ui
+        self.assertEqual(ui.ARAP_PT_solver.bl_parent_id, "ARAP_PT_main")
+        self.assertIn('DEFAULT_CLOSED', ui.ARAP_PT_solver.bl_options)
+        for name in ("iterations", "live_iterations", "tolerance", "weights", "init", "acceleration", "threads"):
+            prop = properties.ARAP_PG_settings.bl_rna.properties[name]
+            self.assertNotIn("README", prop.description, name)
+            self.assertGreater(len(prop.description), 30, name)
+
+    def test_an_empty_scaled_to_nothing_warns(self):
+        self.empty.scale = (0.0, 0.0, 0.0)
+        result = api.deform(self.obj)
+        self.assertTrue(any("scaled to almost nothing" in w and "'top'" in w for w in result.warnings),
+                        result.warnings)
+        self.empty.scale = (0.5, 0.5, 0.5)
+        self.assertFalse(any("scaled" in w for w in api.deform(self.obj).warnings))

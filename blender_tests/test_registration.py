@@ -1,4 +1,5 @@
 # Enabling/disabling the add-on leaves nothing behind; operators are documented and in menus.
+import sys
 import unittest
 
 import bpy
@@ -28,6 +29,18 @@ class Registration(unittest.TestCase):
         self.assertTrue(hasattr(bpy.types, "ARAP_PT_main"))
         self.assertTrue(hasattr(bpy.types, "ARAP_UL_handles"))
         self.assertIn("ARAP_PG_settings", arap_classes())
+
+    def test_public_name_for_scripts(self):
+        # `from arap_deform import api` reaches the loaded add-on, also when Blender
+        # loaded it as an extension (bl_ext.user_default.arap_deform).
+        import arap_deform
+        from arap_deform import api
+        self.assertIs(arap_deform, sys.modules[U.ADDON_MODULE])
+        self.assertIs(api, sys.modules[U.ADDON_MODULE + ".api"])
+        if U.ADDON_MODULE != "arap_deform":
+            U.disable_addon()
+            self.assertNotIn("arap_deform", sys.modules)
+            self.assertNotIn("arap_deform.api", sys.modules)
 
     def test_operators_documented_and_in_menus(self):
         from arap_deform import operators

@@ -18,8 +18,8 @@ bl_info = {
 if "bpy" in locals():
     # Script reload (F3 > Reload Scripts): reload submodules in dependency order.
     import importlib
-    for _name in ("meshio", "constraints", "engine", "anim_compat", "api", "bake", "properties", "operators", "ui",
-                  "bake_ops"):
+    for _name in ("meshio", "constraints", "engine", "anim_compat", "api", "bake", "auto", "properties", "operators",
+                  "ui", "bake_ops"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
@@ -27,10 +27,10 @@ import sys  # noqa: E402
 
 import bpy  # noqa: E402,F401 - its presence in locals() marks a reload
 
-from . import properties, operators, ui, bake_ops, api  # noqa: E402
+from . import properties, operators, ui, bake_ops, auto, api  # noqa: E402
 
-# Order matters: bake_ops' panel is a child of ui's ARAP_PT_main.
-_modules = (properties, operators, ui, bake_ops)
+# Order matters: bake_ops' panel is a child of ui's ARAP_PT_main; auto adds Blender handlers.
+_modules = (properties, operators, ui, bake_ops, auto)
 PUBLIC_NAME = "arap_deform"
 
 

@@ -23,6 +23,9 @@ Errors: SetupError (set-up to change) and ArapError (from the native solver,
 e.g. NaN coordinates) are both subclasses of Exception with a readable message.
 """
 
+import importlib
+
+import bpy
 import numpy as np
 
 from . import constraints, engine
@@ -34,7 +37,7 @@ from .bake import bake_pc2, bake_shape_keys, clear_bake, read_pc2  # noqa: F401
 __all__ = ("SetupError", "SessionError", "NativeModuleError", "DeformResult", "LiveSession", "settings",
            "set_fixed", "add_handle", "remove_handle", "create_group", "deform", "bind", "set_rest_pose",
            "reset", "start_session", "rest_positions", "ArapError", "bake_shape_keys", "bake_pc2", "clear_bake",
-           "read_pc2", "last_result")
+           "read_pc2", "last_result", "set_auto")
 
 
 def __getattr__(name):
@@ -44,8 +47,16 @@ def __getattr__(name):
     raise AttributeError(name)
 
 
+def _registered():
+    """Register the add-on's classes when a script imported this module without
+    enabling the add-on (e.g. blender --factory-startup): then obj.arap exists."""
+    if not hasattr(bpy.types.Object, "arap"):
+        importlib.import_module(__package__).register()
+
+
 def settings(obj):
     """The object's ARAP settings (ARAP_PG_settings, saved in the .blend)."""
+    _registered()
     return obj.arap
 
 
@@ -58,6 +69,7 @@ def create_group(obj, name, indices):
 
 def set_fixed(obj, group):
     """Vertices of vertex group `group` (a name) stay at rest. "" clears it."""
+    _registered()
     if group and group not in obj.vertex_groups:
         raise SetupError("Vertex group '%s' does not exist on '%s'" % (group, obj.name))
     obj.arap.fixed_group = group
@@ -65,6 +77,7 @@ def set_fixed(obj, group):
 
 def add_handle(obj, group, empty):
     """Vertex group `group` follows Empty `empty`; its bind pose is captured now."""
+    _registered()
     if group not in obj.vertex_groups:
         raise SetupError("Vertex group '%s' does not exist on '%s'" % (group, obj.name))
     if empty is None or empty.type != 'EMPTY':
@@ -72,13 +85,14 @@ def add_handle(obj, group, empty):
     item = obj.arap.handles.add()
     item.group = group
     item.empty = empty
-    constraints.capture_bind(item)
+    engine.capture_bind(item)
     obj.arap.active_handle = len(obj.arap.handles) - 1
     return item
 
 
 def remove_handle(obj, index):
     """Remove handle number `index` (the empty and vertex group are kept)."""
+    _registered()
     handles = obj.arap.handles
     if not 0 <= index < len(handles):
         raise IndexError("no handle %d on '%s'" % (index, obj.name))
@@ -91,6 +105,7 @@ def bind(obj, scene=None):
 
     Returns the native mesh report (dict: components, unconstrained_vertices, ...).
     """
+    _registered()
     problem = engine.Problem(obj, scene)
     solver, _ms, _cached = engine.bound_solver(obj, problem.rest64, problem.tris, problem.setup.constrained,
                                                problem.weights, problem.stiffness)
@@ -104,17 +119,31 @@ def deform(obj, iterations=None, tolerance=None, init=None, scene=None):
     'LAPLACIAN', 'DIFFERENTIAL', 'NAIVE'). `scene`, when given, is used to
     detect empties deleted from it.
     """
+    _registered()
     return engine.deform(obj, scene=scene, iterations=iterations, tolerance=tolerance, init=init)
 
 
 def set_rest_pose(obj):
     """Take the current shape as rest and the empties' current poses as bind poses."""
+    _registered()
     engine.set_rest_pose(obj)
 
 
 def reset(obj):
     """Put the rest shape back and capture the empties' bind poses again."""
+    _registered()
     engine.reset(obj)
+
+
+def set_auto(obj, enabled=True):
+    """Auto mode on or off (obj.arap.auto): while on, the mesh is posed by its
+    handles whenever they change -- moves, keyframes and frame changes
+    (scene.frame_set) included. Off puts the rest shape back. Turning it on
+    poses at once and raises SetupError / ArapError when it cannot."""
+    _registered()
+    obj.arap.auto = enabled
+    if enabled and not obj.arap.auto:
+        raise SetupError(obj.arap.auto_status or "Auto posing could not start on '%s'" % obj.name)
 
 
 def start_session(obj, scene=None, iterations=None, write=True):
@@ -123,6 +152,7 @@ def start_session(obj, scene=None, iterations=None, write=True):
     With write=False the mesh is never changed; read .positions() (flat float32,
     object-local) after each step, e.g. to bake frames.
     """
+    _registered()
     return LiveSession(obj, scene=scene, iterations=iterations, write=write)
 
 

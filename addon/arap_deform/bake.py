@@ -175,6 +175,11 @@ class Baker:
         return self.index >= len(self.frames)
 
     @property
+    def last_positions(self):
+        """Float32 (n, 3) object-local pose of the frame step() solved last."""
+        return self.positions[0 if self.pc2 else max(self.index - 1, 0)]
+
+    @property
     def current_frame(self):
         return self.frames[min(self.index, len(self.frames) - 1)]
 

@@ -1,17 +1,18 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Bake operator and its sub-panel: a thin shell around bake.Baker.
 
-Interactive runs are modal (one frame per timer tick, progress in the
-header and the cursor, Esc or right-click cancels and nothing is written);
-in --background (no event loop) and from the redo panel the bake runs
-synchronously in execute(), so scripts can call
+Interactive runs are modal (one frame per timer tick, see InteractiveBake:
+each frame is shown in the viewport as it is solved, with a progress bar in
+the status bar; Esc cancels and nothing is changed); in --background (no
+event loop) and from the redo panel the bake runs synchronously in execute(),
+so scripts can call
 bpy.ops.object.arap_bake(frame_start=1, frame_end=100, output='PC2', filepath="//pose.pc2").
 """
 
 import bpy
 from bpy.props import EnumProperty, IntProperty, StringProperty
 
-from . import bake, engine
+from . import bake, engine, meshio, ui
 
 OUTPUT_ITEMS = (
     ('SHAPE_KEYS', "Shape Keys", "One shape key per frame (ARAP_f0001...), keyed on at its frame"),
@@ -21,6 +22,62 @@ OUTPUT_ITEMS = (
 
 def _default_pc2(obj):
     return "//%s_arap.pc2" % bpy.path.clean_name(obj.name)
+
+
+class InteractiveBake:
+    """What the modal bake does each tick, as plain logic (tested in --background):
+    solve the next frame, show it on the mesh (a preview, undone before the
+    bake writes its result or when it is cancelled: the mesh comes back bit for
+    bit) and publish the progress the status bar draws."""
+
+    current = None   # the running InteractiveBake, read by draw_status_bar
+
+    def __init__(self, baker):
+        self.baker = baker
+        obj = baker.obj
+        self.snapshot = meshio.Snapshot(obj)
+        self.preview = meshio.Output(obj, meshio.resolve_output(obj, obj.arap.output))
+        self.preview.ensure()
+        InteractiveBake.current = self
+
+    @property
+    def fraction(self):
+        return self.baker.index / len(self.baker.frames)
+
+    def status(self):
+        b = self.baker
+        return "ARAP bake: frame %d (%d of %d)" % (b.frames[max(b.index - 1, 0)], b.index, len(b.frames))
+
+    def step(self):
+        """Solve and show one frame; True when every frame is solved."""
+        self.baker.step()
+        self.preview.write(self.baker.last_positions.ravel())
+        return self.baker.done
+
+    def _stop(self):
+        self.snapshot.restore()
+        if InteractiveBake.current is self:
+            InteractiveBake.current = None
+
+    def cancel(self):
+        self._stop()
+        self.baker.cancel()
+
+    def finish(self, write):
+        """Take the preview away, then write the bake with `write(baker)`."""
+        self._stop()
+        return write(self.baker)
+
+
+def draw_status_bar(self, _context):
+    """Status bar progress of a running interactive bake (Blender's progress bar on 4.0+)."""
+    run = InteractiveBake.current
+    if run is None:
+        return
+    if hasattr(self.layout, "progress"):
+        self.layout.progress(factor=run.fraction, type='BAR', text=run.status() + " - Esc to cancel")
+    else:
+        self.layout.label(text="%s, %d%% - Esc to cancel" % (run.status(), round(100 * run.fraction)))
 
 
 class ARAP_OT_bake(bpy.types.Operator):
@@ -39,27 +96,29 @@ class ARAP_OT_bake(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        obj = context.active_object
-        return obj is not None and obj.type == 'MESH' and obj.mode == 'OBJECT'
+        obj = engine.target_mesh(context)
+        return obj is not None and obj.mode == 'OBJECT'
 
     def _check(self, context):
         """Fill defaults; returns an error message or None."""
         if self.output == 'PC2':
             if not self.filepath:
-                self.filepath = _default_pc2(context.active_object)
+                self.filepath = _default_pc2(engine.target_mesh(context))
             if self.filepath.startswith("//") and not bpy.data.filepath:
                 return "Save the .blend first, or give the .pc2 file an absolute path"
         return None
 
     def _start(self, context):
-        return bake.Baker(context.active_object, self.frame_start, self.frame_end, scene=context.scene,
+        return bake.Baker(engine.target_mesh(context), self.frame_start, self.frame_end, scene=context.scene,
                           pc2_path=self.filepath if self.output == 'PC2' else None)
 
+    def _write(self, baker):
+        return baker.write_pc2_cache() if self.output == 'PC2' else baker.write_shape_keys()
+
     def _finish(self, baker):
-        if self.output == 'PC2':
-            result = baker.write_pc2_cache()
-        else:
-            result = baker.write_shape_keys()
+        self._report(self._write(baker))
+
+    def _report(self, result):
         n = len(result.frames)
         total = "%.1f s" % (result.total_ms / 1e3) if result.total_ms >= 1e3 else "%.0f ms" % result.total_ms
         self.report({'INFO'}, "Baked %d frame(s) in %s (%.1f ms/frame, %.1f iterations/frame)"
@@ -101,45 +160,43 @@ class ARAP_OT_bake(bpy.types.Operator):
             self.report({'ERROR'}, error)
             return {'CANCELLED'}
         try:
-            self._baker = self._start(context)
+            self._run = InteractiveBake(self._start(context))
         except Exception as exc:  # noqa: BLE001
             return self._fail(exc)
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.001, window=context.window)
         wm.modal_handler_add(self)
-        wm.progress_begin(0, len(self._baker.frames))
+        bpy.types.STATUSBAR_HT_header.append(draw_status_bar)
         return {'RUNNING_MODAL'}
 
     def _end(self, context):
-        wm = context.window_manager
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        if context.area is not None:
-            context.area.header_text_set(None)
+        context.window_manager.event_timer_remove(self._timer)
+        bpy.types.STATUSBAR_HT_header.remove(draw_status_bar)
+        for area in context.screen.areas if context.screen is not None else ():
+            if area.type == 'STATUSBAR':
+                area.tag_redraw()
 
     def modal(self, context, event):
-        baker = self._baker
-        if event.type in {'ESC', 'RIGHTMOUSE'}:
+        run = self._run
+        if event.type == 'ESC':
             self._end(context)
-            baker.cancel()
+            run.cancel()
             self.report({'WARNING'}, "Bake cancelled: nothing was changed")
             return {'CANCELLED'}
         if event.type != 'TIMER':
-            return {'RUNNING_MODAL'}
+            return {'RUNNING_MODAL'}  # the bake owns the frame: other input waits
         try:
-            frame = baker.step()
-            if baker.done:
+            if run.step():
                 self._end(context)
-                self._finish(baker)
+                self._report(run.finish(self._write))
                 return {'FINISHED'}
         except Exception as exc:  # noqa: BLE001
             self._end(context)
-            baker.cancel()
+            run.cancel()
             return self._fail(exc)
-        context.window_manager.progress_update(baker.index)
-        if context.area is not None:
-            context.area.header_text_set("ARAP bake: frame %d (%d/%d), %d iterations - Esc to cancel"
-                                         % (frame, baker.index, len(baker.frames), baker.result.iterations[-1]))
+        for area in context.screen.areas if context.screen is not None else ():
+            if area.type in {'VIEW_3D', 'STATUSBAR'}:
+                area.tag_redraw()
         return {'RUNNING_MODAL'}
 
 
@@ -151,33 +208,23 @@ class ARAP_OT_bake_clear(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        obj = context.active_object
-        return obj is not None and obj.type == 'MESH' and obj.mode == 'OBJECT'
+        obj = engine.target_mesh(context)
+        return obj is not None and obj.mode == 'OBJECT'
 
     def execute(self, context):
-        n = bake.clear_bake(context.active_object)
+        n = bake.clear_bake(engine.target_mesh(context))
         self.report({'INFO'}, "Removed %d baked item(s)" % n)
         return {'FINISHED'}
 
 
-class ARAP_PT_bake(bpy.types.Panel):
+class ARAP_PT_bake(ui.SubPanel, bpy.types.Panel):
     """Bake the ARAP pose of every frame for playback"""
     bl_label = "Bake Animation"
-    bl_space_type = 'VIEW_3D'
-    bl_region_type = 'UI'
-    bl_category = "ARAP"
-    bl_parent_id = "ARAP_PT_main"
-    bl_options = {'DEFAULT_CLOSED'}
-
-    @classmethod
-    def poll(cls, context):
-        obj = context.active_object
-        return obj is not None and obj.type == 'MESH'
 
     def draw(self, context):
         layout = self.layout
         scene = context.scene
-        obj = context.active_object
+        obj = engine.target_mesh(context)
         row = layout.row(align=True)
         row.prop(scene, "frame_start", text="Start")
         row.prop(scene, "frame_end", text="End")

@@ -139,6 +139,16 @@ def stiffness_of(obj):
     return 1.0 + (s.stiffness - 1.0) * meshio.group_weights(obj, s.stiff_group)
 
 
+def collapsed_handles(setup, empty_matrices, ratio=1e-6):
+    """Groups of the handles whose Empty's volume scale since the bind pose,
+    |det(M_now) / det(M_bind)|, is below `ratio`."""
+    names = []
+    for h, m_now in zip(setup.handles, empty_matrices):
+        if abs(np.linalg.det(m_now[:3, :3]) * np.linalg.det(h.bind_inv[:3, :3])) < ratio:
+            names.append(h.group)
+    return names
+
+
 def handle_transforms(setup, obj_matrix, empty_matrices):
     """Per handle: the object-local 4x4 map M_obj^-1 @ M_now @ M_bind^-1 @ M_obj."""
     obj_inv = np.linalg.inv(obj_matrix)

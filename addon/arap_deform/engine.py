@@ -142,6 +142,24 @@ def unconstrained_warning(report):
             % (report["unconstrained_vertices"], n))
 
 
+def unconverged_warning(stats, max_iterations, tolerance):
+    if stats.converged or tolerance <= 0:
+        return None
+    return ("The pose had not settled after %d iterations (tolerance %g): raise Iterations in the Solver "
+            "panel, or run Deform again to go on" % (max_iterations, tolerance))
+
+
+def collapsed_handles_warning(problem, obj, scene):
+    """A warning naming handles whose Empty is scaled to (almost) nothing since
+    its bind pose: their vertices collapse to a point."""
+    names = constraints.collapsed_handles(problem.setup, problem.empty_matrices(scene))
+    if not names:
+        return None
+    return ("The Empty of handle%s %s is scaled to almost nothing: %s vertices collapse to a point"
+            % ("s" if len(names) > 1 else "", ", ".join("'%s'" % n for n in names),
+               "their" if len(names) > 1 else "its"))
+
+
 class Problem:
     """Everything read from Blender for one bind: rest, triangles, constraints."""
 
@@ -171,6 +189,31 @@ class Problem:
         transforms = constraints.handle_transforms(
             self.setup, constraints.matrix_to_numpy(obj.matrix_world), self.empty_matrices(scene))
         return constraints.fill_targets(self.setup, self.rest_constrained, transforms, self.targets)
+
+
+def configured_solver(problem, settings, warm=False):
+    """A solver bound to `problem` with the object's settings (`warm`: each
+    solve() starts from the last solution, the first from the cold guess)."""
+    solver = native().Solver()
+    solver.bind(problem.rest64, problem.tris, problem.setup.constrained, weights=problem.weights,
+                stiffness=problem.stiffness)
+    solver.max_iterations = settings.iterations
+    solver.tolerance = settings.tolerance
+    solver.method = METHOD_NAMES[settings.method]
+    solver.anderson_window = settings.acceleration
+    solver.threads = settings.threads
+    if warm:
+        solver.cold_start = INIT_NAMES[settings.init]
+        solver.init = "warm"
+    else:
+        solver.init = INIT_NAMES[settings.init]
+    return solver
+
+
+def topology_counts(mesh):
+    """Vertex, edge, loop and face counts: a cheap check that the topology the
+    solver was bound to is still there."""
+    return (len(mesh.vertices), len(mesh.edges), len(mesh.loops), len(mesh.polygons))
 
 
 def sync_matrices():
@@ -212,9 +255,10 @@ def deform(obj, scene=None, iterations=None, tolerance=None, init=None):
     t3 = time.perf_counter()
     report = solver.mesh_report()
     warnings = list(problem.setup.warnings)
-    w = unconstrained_warning(report)
-    if w:
-        warnings.append(w)
+    for w in (unconstrained_warning(report), collapsed_handles_warning(problem, obj, scene),
+              unconverged_warning(stats, solver.max_iterations, solver.tolerance)):
+        if w:
+            warnings.append(w)
     io_ms = (t1 - t0 + t3 - t2) * 1000.0 - bind_ms
     return remember_result(obj, DeformResult(stats, bind_ms, io_ms, problem.output, warnings, report, cached))
 
@@ -255,7 +299,15 @@ def set_rest_pose(obj):
     capture_all_binds(obj)
 
 
+def capture_bind(handle):
+    """Take the handle Empty's world matrix now as its bind pose (matrices
+    brought up to date first: a script may just have moved the Empty)."""
+    sync_matrices()
+    constraints.capture_bind(handle)
+
+
 def capture_all_binds(obj):
+    sync_matrices()
     for h in obj.arap.handles:
         if h.empty is not None:
             constraints.capture_bind(h)
@@ -432,6 +484,30 @@ def session_for(obj):
                 return session
         except ReferenceError:
             continue
+    return None
+
+
+def target_mesh(context):
+    """The mesh the panel and the operators act on: the active mesh object,
+    or, when a handle's Empty is active, the mesh it poses (the one Live is
+    posing first), so that selecting an Empty does not hide the panel."""
+    obj = context.active_object
+    if obj is None:
+        return None
+    if obj.type == 'MESH':
+        return obj
+    if obj.type != 'EMPTY':
+        return None
+    session = any_session()
+    if session is not None and session.active:
+        try:
+            if any(h.empty == obj for h in session.obj.arap.handles):
+                return session.obj
+        except ReferenceError:
+            pass
+    for ob in context.view_layer.objects:
+        if ob.type == 'MESH' and any(h.empty == obj for h in ob.arap.handles):
+            return ob
     return None
 
 

@@ -3,6 +3,7 @@
 
 import bmesh
 import bpy
+import numpy as np
 from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
 from mathutils import Matrix, Vector
 
@@ -32,17 +33,33 @@ def _redraw_3d_views(context):
 
 
 def _selected_vertices(obj):
-    """Indices and local centroid of the selected vertices (Edit Mode)."""
-    bm = bmesh.from_edit_mesh(obj.data)
-    sel = [v for v in bm.verts if v.select]
-    if not sel:
+    """Indices and local centroid of the selected vertices, in Edit Mode (the
+    edit mesh) or Object Mode (the selection stored in the mesh)."""
+    if obj.mode == 'EDIT':
+        bm = bmesh.from_edit_mesh(obj.data)
+        sel = [v for v in bm.verts if v.select]
+        if not sel:
+            return [], None
+        return [v.index for v in sel], sum((v.co for v in sel), Vector()) / len(sel)
+    verts = obj.data.vertices
+    flags = np.empty(len(verts), bool)
+    verts.foreach_get("select", flags)
+    indices = np.flatnonzero(flags)
+    if len(indices) == 0:
         return [], None
-    centroid = sum((v.co for v in sel), Vector()) / len(sel)
-    return [v.index for v in sel], centroid
+    co = np.empty(len(verts) * 3, np.float32)
+    verts.foreach_get("co", co)
+    return indices.tolist(), Vector(co.reshape(-1, 3)[indices].mean(axis=0))
 
 
-def _assign_in_edit_mode(obj, group, indices, replace):
-    """Set `group` to weight 1 on `indices` through the edit-mesh deform layer."""
+def _assign(obj, group, indices, replace):
+    """Give `indices` weight 1 in `group` (and with `replace`, only them)."""
+    if obj.mode != 'EDIT':
+        if replace:
+            group.remove(range(len(obj.data.vertices)))
+        group.add(indices, 1.0, 'REPLACE')
+        return
+    # In Edit Mode the edit mesh owns the weights: write its deform layer.
     bm = bmesh.from_edit_mesh(obj.data)
     layer = bm.verts.layers.deform.verify()
     wanted = set(indices)
@@ -56,6 +73,9 @@ def _assign_in_edit_mode(obj, group, indices, replace):
     bmesh.update_edit_mesh(obj.data)
 
 
+NOTHING_SELECTED = "No vertex is selected: select some in Edit Mode (Tab), then press the button again"
+
+
 class ARAP_OT_add_handle_from_selection(bpy.types.Operator):
     """Make the selected vertices a new handle: a vertex group and an Empty at their centroid"""
     bl_idname = "object.arap_add_handle_from_selection"
@@ -67,18 +87,18 @@ class ARAP_OT_add_handle_from_selection(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        obj = _mesh_object(context)
-        return obj is not None and obj.mode == 'EDIT'
+        return _mesh_object(context) is not None
 
     def execute(self, context):
         obj = _mesh_object(context)
         indices, centroid = _selected_vertices(obj)
         if not indices:
-            self.report({'ERROR'}, "Select the vertices the new handle should move")
+            self.report({'ERROR'}, NOTHING_SELECTED)
             return {'CANCELLED'}
         group = obj.vertex_groups.new(name=self.group_name)
-        _assign_in_edit_mode(obj, group, indices, replace=False)
-        empty = bpy.data.objects.new("ARAP_%s_%s" % (obj.name, group.name), None)
+        _assign(obj, group, indices, replace=False)
+        # The group's name first: what tells handles apart when the list cuts names short.
+        empty = bpy.data.objects.new("%s_%s" % (group.name, obj.name), None)
         empty.empty_display_type = 'SPHERE'
         empty.empty_display_size = max(0.05, 0.1 * max(obj.dimensions))
         collection = obj.users_collection[0] if obj.users_collection else context.scene.collection
@@ -98,20 +118,19 @@ class ARAP_OT_set_fixed_from_selection(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        obj = _mesh_object(context)
-        return obj is not None and obj.mode == 'EDIT'
+        return _mesh_object(context) is not None
 
     def execute(self, context):
         obj = _mesh_object(context)
         indices, _centroid = _selected_vertices(obj)
         if not indices:
-            self.report({'ERROR'}, "Select the vertices that should stay fixed")
+            self.report({'ERROR'}, NOTHING_SELECTED)
             return {'CANCELLED'}
         name = obj.arap.fixed_group
         group = obj.vertex_groups.get(name) if name else None
         if group is None:
             group = obj.vertex_groups.new(name="ARAP_Fixed")
-        _assign_in_edit_mode(obj, group, indices, replace=True)
+        _assign(obj, group, indices, replace=True)
         obj.arap.fixed_group = group.name
         self.report({'INFO'}, "Fixed group '%s': %d vertices" % (group.name, len(indices)))
         return {'FINISHED'}
@@ -125,10 +144,10 @@ class ARAP_OT_handle_add(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        return _mesh_object(context) is not None
+        return engine.target_mesh(context) is not None
 
     def execute(self, context):
-        s = _mesh_object(context).arap
+        s = engine.target_mesh(context).arap
         s.handles.add()
         s.active_handle = len(s.handles) - 1
         return {'FINISHED'}
@@ -142,11 +161,11 @@ class ARAP_OT_handle_remove(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        obj = _mesh_object(context)
+        obj = engine.target_mesh(context)
         return obj is not None and len(obj.arap.handles) > 0
 
     def execute(self, context):
-        obj = _mesh_object(context)
+        obj = engine.target_mesh(context)
         api.remove_handle(obj, min(obj.arap.active_handle, len(obj.arap.handles) - 1))
         return {'FINISHED'}
 
@@ -157,22 +176,27 @@ class ARAP_OT_deform(bpy.types.Operator):
     bl_label = "ARAP Deform"
     bl_options = {'REGISTER', 'UNDO'}
 
-    iterations: IntProperty(name="Iterations", default=0, min=0, max=1000,
-                            description="Local/global iterations (0: the object's setting)")
-    tolerance: FloatProperty(name="Tolerance", default=-1.0, min=-1.0, max=1.0, precision=7,
-                             description="Relative energy change to stop at (negative: the object's setting)")
-    init: EnumProperty(name="First Guess", items=(('SETTINGS', "Object Setting", "Use the object's setting"),)
-                       + properties.INIT_ITEMS, default='SETTINGS')
+    # The redo panel (F9) shows the values the solve used: execute() fills
+    # any not given from the object's settings (properties.py has the tooltips).
+    iterations: IntProperty(name="Iterations", default=100, min=1, max=1000,
+                            description="Most solver rounds; it stops earlier once the pose has settled")
+    tolerance: FloatProperty(name="Tolerance", default=1e-6, min=0.0, max=1.0, precision=7, step=0.0001,
+                             description="Stop when a round improves the pose by less than this fraction")
+    init: EnumProperty(name="Start From", items=properties.INIT_ITEMS, default='NAIVE',
+                       description="The shape the solver starts from")
 
     def execute(self, context):
-        obj = context.active_object
-        if obj is not None and obj.type == 'MESH' and engine.session_for(obj) is not None:
+        obj = engine.target_mesh(context)
+        if obj is not None and engine.session_for(obj) is not None:
             self.report({'ERROR'}, "Live is running on '%s': apply or cancel it first" % obj.name)
             return {'CANCELLED'}
+        if obj is not None:
+            for name in ("iterations", "tolerance", "init"):
+                if not self.properties.is_property_set(name):
+                    setattr(self, name, getattr(obj.arap, name))
         try:
-            result = api.deform(obj, iterations=self.iterations or None,
-                                tolerance=None if self.tolerance < 0 else self.tolerance,
-                                init=None if self.init == 'SETTINGS' else self.init, scene=context.scene)
+            result = api.deform(obj, iterations=self.iterations, tolerance=self.tolerance, init=self.init,
+                                scene=context.scene)
         except Exception as exc:  # noqa: BLE001 - _report_error re-raises what is not a user error
             return _report_error(self, exc)
         for w in result.warnings:
@@ -183,12 +207,12 @@ class ARAP_OT_deform(bpy.types.Operator):
 
 
 class _ApplyToActiveObject:
-    """Mixin: execute() runs `action` (an api function) on the active object and reports its errors."""
+    """Mixin: execute() runs `action` (an api function) on the panel's mesh and reports its errors."""
     action = None
 
     def execute(self, context):
         try:
-            type(self).action(context.active_object)
+            type(self).action(engine.target_mesh(context))
         except Exception as exc:  # noqa: BLE001 - _report_error re-raises what is not a user error
             return _report_error(self, exc)
         return {'FINISHED'}

@@ -25,10 +25,11 @@ WEIGHT_ITEMS = (
     ('UNIFORM', "Uniform", "Every edge weighs 1: ignores the triangle shapes"),
 )
 INIT_ITEMS = (
-    ('NAIVE', "Naive", "The rest shape with only the constrained vertices moved: reaches the lowest energy "
-     "on the measured scenarios (see README)"),
-    ('LAPLACIAN', "Laplacian", "One Laplacian-editing step with identity rotations: a smoother start"),
-    ('DIFFERENTIAL', "Differential", "Uniform-Laplacian differential coordinates (Lipman et al. 2004)"),
+    ('NAIVE', "Rest Shape", "Start from the rest shape with only the fixed and handle vertices moved. "
+     "Usually ends in the least stretched pose"),
+    ('LAPLACIAN', "Smooth", "Start from a smooth blend of the handle motion over the mesh (Laplacian editing)"),
+    ('DIFFERENTIAL', "Smooth (uniform)", "Like Smooth, but every edge counts the same (Lipman et al. 2004): "
+     "a start that ignores the triangle shapes"),
 )
 METHOD_ITEMS = (
     ('QUASI_NEWTON', "Quasi-Newton", "L-BFGS with the factored Laplacian and a line search (Liu et al. 2017): "
@@ -76,8 +77,31 @@ class ARAP_PG_handle(PropertyGroup):
     )
 
 
+def _auto_changed(settings, context):
+    from . import auto  # the handlers' module (imports the native bridge)
+    obj = settings.id_data
+    if settings.auto:
+        settings.auto_status = ""
+        auto.update_scene(context.scene)
+    else:
+        auto.stop(obj)
+
+
 class ARAP_PG_settings(PropertyGroup):
     """ARAP settings of one mesh object."""
+
+    auto: BoolProperty(
+        name="Auto",
+        description="Keep the mesh posed by its handles whenever they move, animate or are scrubbed, like a "
+                    "modifier (off: the rest shape comes back)",
+        default=False,
+        update=_auto_changed,
+    )
+    auto_status: StringProperty(
+        name="Auto Status",
+        description="Why Auto posing last stopped by itself (empty when it did not)",
+        default="",
+    )
 
     fixed_group: StringProperty(
         name="Fixed Group",
@@ -92,13 +116,14 @@ class ARAP_PG_settings(PropertyGroup):
     )
     iterations: IntProperty(
         name="Iterations",
-        description="Most iterations of Deform, a safety cap: it stops at the tolerance",
+        description="Most solver rounds a Deform may take, a safety cap: it stops once the pose has settled "
+                    "(see Tolerance)",
         default=1000, min=1, max=10000,
     )
     live_iterations: IntProperty(
         name="Live Iterations",
-        description="Most iterations per Live update; each update also stops at the Live frame budget, and "
-                    "Live goes on iterating while nothing moves until the pose has settled",
+        description="Most solver rounds per viewport update while Live runs; each update also stops at the "
+                    "Live Frame Budget, and Live goes on while nothing moves until the pose has settled",
         default=100, min=1, max=1000,
     )
     live_frame_ms: FloatProperty(
@@ -109,15 +134,17 @@ class ARAP_PG_settings(PropertyGroup):
     )
     tolerance: FloatProperty(
         name="Tolerance",
-        description="Stop when the energy drops by less than this fraction of itself (0: run all iterations)",
+        description="How settled the pose must be to stop: the solver stops when a round improves it by "
+                    "less than this fraction. Smaller is more exact and slower; 0 always runs every round",
         default=1e-6, min=0.0, max=1.0, precision=7, step=0.0001,
     )
     weights: EnumProperty(
-        name="Weights", description="Edge weights of the energy (changing them needs a new bind)",
+        name="Edge Weights", description="How much each edge resists stretching. Cotangent (clamped) suits "
+        "almost every mesh",
         items=WEIGHT_ITEMS, default='COTAN_CLAMPED',
     )
     init: EnumProperty(
-        name="First Guess", description="Positions the iterations start from",
+        name="Start From", description="The shape the solver starts from; the pose it settles in can differ",
         items=INIT_ITEMS, default='NAIVE',
     )
     stiff_group: StringProperty(
@@ -134,13 +161,14 @@ class ARAP_PG_settings(PropertyGroup):
     )
     acceleration: IntProperty(
         name="Acceleration",
-        description="Anderson acceleration window of the Anderson method (Peng et al. 2018): how many past "
-                    "iterates to extrapolate from. Each step is kept only if it lowers the energy",
+        description="Speeds up settling of the Anderson method by extrapolating from this many past rounds "
+                    "(Anderson acceleration). A step is kept only when it improves the pose",
         default=5, min=0, max=20,
     )
     threads: IntProperty(
         name="Threads",
-        description="Threads for the per-vertex steps; more than 1 only pays on large meshes on an idle machine",
+        description="CPU threads for the solver; more than 1 only helps on large meshes (100k+ vertices) "
+                    "when the computer is otherwise idle",
         default=1, min=1, max=64,
     )
     output: EnumProperty(

@@ -8,27 +8,19 @@ from . import engine
 
 
 class ARAP_UL_handles(bpy.types.UIList):
-    """Handles: vertex group and the Empty driving it."""
+    """Handles: each row names its vertex group and the Empty driving it; the
+    active one is edited below the list (as Blender's own vertex group list)."""
 
     def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0):
-        obj = data.id_data
-        row = layout.row(align=True)
-        row.prop_search(item, "group", obj, "vertex_groups", text="", icon='GROUP_VERTEX')
-        row.prop(item, "empty", text="", icon='EMPTY_AXIS')
+        split = layout.split(factor=0.45)
+        split.label(text=item.group or "(no group)", icon='GROUP_VERTEX')
+        split.label(text=item.empty.name if item.empty is not None else "(no Empty)")
 
 
-def _panel_object(context):
-    """The active mesh; while Live runs and an empty is active, the posed mesh."""
-    obj = context.active_object
-    if obj is not None and obj.type == 'MESH':
-        return obj
-    session = engine.any_session()
-    if session is not None and session.active:
-        try:
-            return session.obj if session.obj.name else None
-        except ReferenceError:
-            return None
-    return None
+def panel_object(context):
+    """The mesh the panel shows (engine.target_mesh: the active mesh, or the
+    posed mesh of an active handle Empty)."""
+    return engine.target_mesh(context)
 
 
 class ARAP_PT_main(bpy.types.Panel):
@@ -40,61 +32,92 @@ class ARAP_PT_main(bpy.types.Panel):
 
     @classmethod
     def poll(cls, context):
-        return _panel_object(context) is not None
+        return panel_object(context) is not None
 
     def draw(self, context):
         layout = self.layout
-        obj = _panel_object(context)
+        obj = panel_object(context)
         s = obj.arap
         session = engine.session_for(obj)
         if obj != context.active_object:
-            layout.label(text="Live: posing '%s'" % obj.name, icon='PLAY')
+            layout.label(text="Handle of '%s'" % obj.name, icon='MESH_DATA')
 
         col = layout.column()
-        col.label(text="Fixed (anchor) vertices:")
-        row = col.row(align=True)
-        row.prop_search(s, "fixed_group", obj, "vertex_groups", text="")
-        row.operator("object.arap_set_fixed_from_selection", text="", icon='RESTRICT_SELECT_OFF')
+        col.label(text="Fixed Vertices", icon='PINNED')
+        col.prop_search(s, "fixed_group", obj, "vertex_groups", text="")
+        col.operator("object.arap_set_fixed_from_selection", text="Set Fixed from Selection",
+                     icon='RESTRICT_SELECT_OFF')
 
-        col.label(text="Handles:")
+        col.separator()
+        col.label(text="Handles", icon='EMPTY_AXIS')
         row = col.row()
         row.template_list("ARAP_UL_handles", "", s, "handles", s, "active_handle", rows=3)
         sub = row.column(align=True)
         sub.operator("object.arap_handle_add", text="", icon='ADD')
         sub.operator("object.arap_handle_remove", text="", icon='REMOVE')
-        col.operator("object.arap_add_handle_from_selection", icon='EMPTY_AXIS')
-        if obj.mode == 'EDIT':
-            col.label(text="Deform and Live run in Object Mode", icon='INFO')
+        if 0 <= s.active_handle < len(s.handles):
+            handle = s.handles[s.active_handle]
+            box = col.box()
+            box.use_property_split = True
+            box.use_property_decorate = False
+            box.prop_search(handle, "group", obj, "vertex_groups", text="Group")
+            box.prop(handle, "empty", text="Empty")
+        col.operator("object.arap_add_handle_from_selection", text="Add Handle from Selection", icon='ADD')
 
-        box = layout.box()
-        box.prop_search(s, "stiff_group", obj, "vertex_groups", text="Stiff")
+        col.separator()
+        sub = col.column()
+        sub.use_property_split = True
+        sub.use_property_decorate = False
+        sub.prop(s, "output")
+        sub.prop_search(s, "stiff_group", obj, "vertex_groups", text="Stiff Group")
         if s.stiff_group:
-            box.prop(s, "stiffness")
-        box.prop(s, "method")
-        box.prop(s, "iterations")
-        box.prop(s, "live_iterations")
-        box.prop(s, "live_frame_ms")
-        box.prop(s, "tolerance")
-        box.prop(s, "weights")
-        box.prop(s, "init")
-        if s.method == 'ANDERSON':
-            box.prop(s, "acceleration")
-        box.prop(s, "threads")
-        box.prop(s, "output")
+            sub.prop(s, "stiffness")
 
         col = layout.column(align=True)
+        col.prop(s, "auto", text="Auto (follow the handles)", toggle=True, icon='AUTO')
+        if s.auto_status and not s.auto:
+            col.label(text=s.auto_status, icon='ERROR')
         if session is None:
-            col.operator("object.arap_deform", icon='MOD_SIMPLEDEFORM')
-            col.operator("object.arap_live", icon='PLAY')
+            col.operator("object.arap_deform", text="Deform", icon='MOD_SIMPLEDEFORM')
+            col.operator("object.arap_live", text="Live", icon='PLAY')
         else:
             row = col.row(align=True)
             row.operator("object.arap_live_apply", text="Apply", icon='CHECKMARK')
             row.operator("object.arap_live_cancel", text="Cancel", icon='CANCEL')
             if session.last is not None:
                 col.label(text="%.1f ms/frame, energy %.5g" % (session.last.total_ms, session.last.energy))
-        row = col.row(align=True)
-        row.operator("object.arap_reset", icon='LOOP_BACK')
-        row.operator("object.arap_set_rest_pose", icon='ARMATURE_DATA')
+        col = layout.column(align=True)
+        col.operator("object.arap_reset", text="Reset to Rest", icon='LOOP_BACK')
+        col.operator("object.arap_set_rest_pose", text="Set Rest Pose", icon='ARMATURE_DATA')
+
+
+class SubPanel:
+    """Mixin: a collapsed sub-panel of ARAP_PT_main, shown for the same mesh."""
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "ARAP"
+    bl_parent_id = "ARAP_PT_main"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        return panel_object(context) is not None
+
+
+class ARAP_PT_solver(SubPanel, bpy.types.Panel):
+    """How the solver works: method, rounds, frame budget, tolerance, weights, acceleration, threads"""
+    bl_label = "Solver"
+
+    def draw(self, context):
+        s = panel_object(context).arap
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        for name in ("method", "iterations", "live_iterations", "live_frame_ms", "tolerance", "weights", "init"):
+            layout.prop(s, name)
+        if s.method == 'ANDERSON':
+            layout.prop(s, "acceleration")
+        layout.prop(s, "threads")
 
 
 class ARAP_MT_menu(bpy.types.Menu):
@@ -121,7 +144,7 @@ def _menu_entry(self, context):
     self.layout.menu(ARAP_MT_menu.bl_idname)
 
 
-classes = (ARAP_UL_handles, ARAP_PT_main, ARAP_MT_menu)
+classes = (ARAP_UL_handles, ARAP_PT_main, ARAP_PT_solver, ARAP_MT_menu)
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
 _MENUS = ("VIEW3D_MT_object", "VIEW3D_MT_edit_mesh_vertices")
 

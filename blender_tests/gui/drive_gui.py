@@ -188,6 +188,18 @@ def run(gui):
         raise Fail("Ctrl+Z did not bring the mesh back to rest (empty at %s)" % s6["empty_location"])
     print("Ctrl+Z restored the rest shape")
     gui.shot("05_after_undo.png")
+    # Deform from the keyboard: the redo panel (F9) shows the values it used, not placeholders.
+    gui.command("cmd_redo_settings")
+    gui.settle()
+    gui.xdo("mousemove", *map(str, s1["viewport_centre"]))
+    gui.xdo("key", "ctrl+alt+shift+d")
+    redo = gui.wait("Deform to run from the keyboard",
+                    lambda s: s.get("redo", {}).get("operator") == "OBJECT_OT_arap_deform")["redo"]
+    print("redo panel after Deform:", redo)
+    if (redo["operator"], redo["iterations"], redo["init"]) != ("OBJECT_OT_arap_deform", 37, "LAPLACIAN") \
+            or abs(redo["tolerance"] - 1e-5) > 1e-9:
+        raise Fail("the redo panel does not show the values Deform used: %s" % redo)
+    auto_mode(gui)
     shot_path = os.path.join(gui.out, "06_blender_screenshot.png")
     gui.command("cmd_screenshot", shot_path)
     gui.wait("Blender's own screenshot", lambda s: os.path.exists(shot_path))
@@ -195,6 +207,43 @@ def run(gui):
         log = f.read()
     if "Traceback" in log:
         raise Fail("Python errors in Blender's log (panel drawing, operators):\n" + log[-3000:])
+
+
+def offset(s):
+    return [a - b for a, b in zip(s["top_centroid"], s["empty_location"])]
+
+
+def auto_mode(gui):
+    """Auto mode, no Live: G on the Empty poses the mesh; playback poses every frame.
+    The handle moves rigidly with its Empty, so the top vertices keep their
+    offset from it (`follows`)."""
+    gui.command("cmd_auto")
+    s0 = gui.wait("Auto mode on", lambda s: s.get("auto") and not s.get("live_running"))
+    rest_offset = offset(s0)
+
+    def follows(s, tol=0.02):
+        return moved(offset(s), rest_offset) < tol
+
+    gui.drag_with_g(s0["viewport_centre"], 50, -30,
+                    lambda s: moved(s["top_centroid"], s0["top_centroid"]) > 0.05)
+    s1 = gui.wait("the mesh to follow with Auto", lambda s: follows(s) and moved(s["empty_location"],
+                                                                               s0["empty_location"]) > 0.05)
+    print("Auto: the top vertices followed G to", s1["top_centroid"])
+    gui.shot("07_auto_after_move.png")
+    gui.command("cmd_animate")
+    gui.wait("keyframes", lambda s: s.get("frame") == 1 and follows(s))
+    gui.xdo("mousemove", *map(str, s0["viewport_centre"]))
+    gui.xdo("key", "space")   # Play (the default keymap's Spacebar action)
+    s2 = gui.wait("playback to reach frame 10", lambda s: s.get("playing") and s.get("frame", 0) >= 10)
+    gui.shot("08_auto_playback.png")
+    if not follows(s2, tol=0.05):
+        raise Fail("during playback the top vertices (%s) did not follow the Empty (%s)"
+                   % (s2["top_centroid"], s2["empty_location"]))
+    gui.xdo("key", "Escape")   # stop playback (Blender goes back to the frame it started from)
+    s3 = gui.wait("playback to stop and the pose to settle", lambda s: not s.get("playing") and follows(s))
+    if not s3.get("auto"):
+        raise Fail("Auto mode stopped: %s" % s3.get("auto_status"))
+    print("Auto: playback reached frame %d, stopped at frame %d, the pose follows" % (s2["frame"], s3["frame"]))
 
 
 def main():

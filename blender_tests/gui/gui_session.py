@@ -5,7 +5,8 @@
 # Sets up a bar (fixed bottom, handle on top driven by an empty), then talks
 # to drive_gui.py through files in <out dir>:
 #   state.json   written every 0.2 s: vertex hash, top centroid, empty location, Live state, viewport centre
-#   cmd_*        commands from the driver: cmd_live (start Live), cmd_select_empty, cmd_quit
+#   cmd_*        commands from the driver: cmd_live (start Live), cmd_auto (Auto mode on), cmd_animate
+#                (keyframe the Empty), cmd_redo_settings, cmd_screenshot, cmd_quit
 import hashlib
 import json
 import os
@@ -72,6 +73,10 @@ def setup():
     # The driver switches tabs with Ctrl+Tab over the sidebar; this hook,
     # appended to the add-on's panel, tells it when the ARAP panel was drawn.
     bpy.types.ARAP_PT_main.append(panel_drawn)
+    # A key for Deform (as a user's own keymap entry): operators run from input,
+    # unlike bpy.ops calls from a script, are what the redo panel (F9) shows.
+    km = bpy.context.window_manager.keyconfigs.addon.keymaps.new(name="3D View", space_type='VIEW_3D')
+    km.keymap_items.new("object.arap_deform", 'D', 'PRESS', ctrl=True, alt=True, shift=True)
     # An undo step for the set-up, so Ctrl+Z can come back to it.
     with bpy.context.temp_override(window=win, area=area, region=region):
         bpy.ops.ed.undo_push(message="ARAP test set-up")
@@ -94,12 +99,43 @@ def start_live():
     with bpy.context.temp_override(window=win, area=area, region=region, active_object=obj, object=obj):
         result = bpy.ops.object.arap_live('INVOKE_DEFAULT')
     STATE["live_invoke"] = list(result)
-    # G must move the empty: make it the only selected, active object.
+    select_only_the_empty()
+
+
+def select_only_the_empty():
+    """G must move the empty: make it the only selected, active object."""
     empty = bpy.data.objects["TopEmpty"]
     for ob in bpy.context.view_layer.objects:
         ob.select_set(False)
     empty.select_set(True)
     bpy.context.view_layer.objects.active = empty
+
+
+def auto_on():
+    """Auto mode on for the bar; the Empty selected and active for G."""
+    bpy.data.objects["Bar"].arap.auto = True
+    select_only_the_empty()
+
+
+def animate_empty():
+    """Keyframes on the handle Empty: frame 1 where it is, frame 40 0.8 to the side."""
+    empty = bpy.data.objects["TopEmpty"]
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 40
+    scene.frame_set(1)
+    empty.keyframe_insert("location", frame=1)
+    empty.location.x += 0.8
+    empty.keyframe_insert("location", frame=40)
+    scene.frame_set(1)
+
+
+def report_redo_panel():
+    """What the redo panel (F9) shows: the last operator run from the UI."""
+    ops = bpy.context.window_manager.operators
+    if len(ops) and ops[-1].bl_idname == "OBJECT_OT_arap_deform":
+        p = ops[-1].properties
+        STATE["redo"] = {"operator": ops[-1].bl_idname, "iterations": p.iterations, "tolerance": p.tolerance,
+                         "init": p.init}
 
 
 def screenshot(name):
@@ -121,10 +157,14 @@ def write_state():
         STATE["empty_location"] = list(bpy.data.objects["TopEmpty"].matrix_world.translation)
         session = engine.session_for(obj)
         STATE["live_running"] = session is not None
+        win, area, region = view3d()
+        STATE["auto"] = obj.arap.auto
+        STATE["auto_status"] = obj.arap.auto_status
+        STATE["frame"] = bpy.context.scene.frame_current
+        STATE["playing"] = bool(win.screen.is_animation_playing)
         if session is not None and session.last is not None:
             STATE["frame_ms"] = session.last.total_ms
             STATE["energy"] = session.last.energy
-        win, area, region = view3d()
         STATE["viewport_centre"] = [region.x + region.width // 2, win.height - (region.y + region.height // 2)]
         ui = next(r for r in area.regions if r.type == 'UI')
         # Screen x of the sidebar's tab column (right edge) and y of its top.
@@ -151,6 +191,16 @@ def tick():
             setup()
         if take("cmd_live"):
             start_live()
+        if take("cmd_auto"):
+            auto_on()
+        if take("cmd_animate"):
+            animate_empty()
+        if take("cmd_redo_settings"):
+            obj = bpy.data.objects["Bar"]
+            obj.arap.iterations, obj.arap.tolerance, obj.arap.init = 37, 1e-5, 'LAPLACIAN'
+            bpy.context.view_layer.objects.active = obj
+        if STATE.get("ready"):
+            report_redo_panel()
         shot = take("cmd_screenshot")
         if shot:
             screenshot(shot)

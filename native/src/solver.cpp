@@ -77,11 +77,11 @@ struct Solver::Impl {
   LbfgsHistory lbfgs;
   std::vector<double> qn_x, qn_g, qn_d;  // #free by 3 each, for the quasi-Newton method
   // The last solve was quasi-Newton and nothing touched its state since: a warm
-  // solve with the same targets continues from qn_x, qn_g, qn_energy and the history.
+  // solve with the same targets continues from qn_x, qn_g, qn_d, qn_energy and the history.
   bool qn_resumable = false;
   double qn_energy = 0;
-  bool qn_plain = false;       // qn_d is the plain step
-  bool qn_small_step = false;  // the last step lowered the energy by at most the tolerance
+  bool qn_plain = false;  // qn_d is the plain step
+  double qn_slope = 0;    // dE/dalpha along qn_d, the direction of the next step
   Points last_targets;
 
   void gather_free(std::vector<double>& out) const {
@@ -120,7 +120,6 @@ struct Solver::Impl {
     qn_x.resize(nf3), qn_g.resize(nf3), qn_d.resize(nf3);
     lbfgs.reset(kQuasiNewtonHistory, static_cast<Eigen::Index>(nf3));
     gather_free(qn_x);
-    qn_small_step = false;
     const auto t = Clock::now();
     half_gradient(mesh, state.data(), rotations.data(), qn_g.data(), options.threads);
     stats.direction_ms += ms_since(t);
@@ -354,6 +353,7 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       if (reuse_rotations) s.global_step(stats);
       previous_energy = stats.initial_energy = s.local(stats);
       s.start_quasi_newton(stats);
+      s.qn_slope = s.quasi_newton_direction(stats);
     } else if (!reuse_rotations) {
       previous_energy = stats.initial_energy = s.local(stats);
     } else {
@@ -369,18 +369,15 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       t = Clock::now();
       double e;
       if (quasi_newton) {
-        // Settled when the last step lowered the energy by at most the tolerance and
-        // the next one is predicted to lower it by no more (a small step alone can be
-        // a short line-search step far from the minimum).
-        const double slope = s.quasi_newton_direction(stats);
-        if (s.qn_small_step && -0.5 * slope <= tolerance * std::abs(previous_energy)) {
-          stats.converged = true;
-          break;
-        }
         bool stuck = false;
-        e = s.quasi_newton_step(previous_energy, slope, stuck, stats);
-        s.qn_small_step = previous_energy - e <= tolerance * std::abs(previous_energy);
-        stats.converged = stuck;
+        e = s.quasi_newton_step(previous_energy, s.qn_slope, stuck, stats);
+        // The next direction now, so that the stop can look at it: settled when this
+        // step lowered the energy by at most the tolerance and the next one is
+        // predicted to lower it by no more (a small step alone can be a short
+        // line-search step far from the minimum).
+        s.qn_slope = s.quasi_newton_direction(stats);
+        const bool small_step = previous_energy - e <= tolerance * std::abs(previous_energy);
+        stats.converged = stuck || (small_step && -0.5 * s.qn_slope <= tolerance * std::abs(e));
       } else {
         e = s.iterate(previous_energy, stats);
         stats.converged = std::isfinite(previous_energy) && previous_energy - e <= tolerance * std::abs(previous_energy);

@@ -1,0 +1,333 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Auto mode: an object's pose follows its handle Empties whenever they change,
+like a modifier, with no session to start (Object.arap.auto, saved in the .blend).
+
+Blender's handlers drive it: after every depsgraph update and frame change the
+pose key of each Auto object -- the evaluated world matrices of the object and
+of its handle Empties, so keyframes, drivers, constraints and parents all count
+-- is compared with the one last written. Nothing is solved when it did not
+change (our own writes trigger depsgraph updates too; they find the same key).
+
+A new key is solved to the object's tolerance, warm-started from the cached
+solution whose handles were nearest, and the result is cached: playing a range
+solves each frame once, scrubbing back to a frame writes its cached pose, and
+a frame reached by another path starts from a neighbouring solution, so it
+settles in the same pose within the tolerance (the worst difference is measured
+in the README). In the viewport one update spends at most FRAME_BUDGET_MS on
+iterations and a timer goes on until the pose has settled, then stops (no CPU
+while idle); in --background and while rendering every pose is solved to the end.
+
+An error (a deleted Empty, a changed vertex count, Edit Mode) turns Auto off for
+that object, puts its rest shape back and leaves the reason in
+obj.arap.auto_status; the handlers themselves never raise.
+"""
+
+import time
+
+import bmesh
+import bpy
+import numpy as np
+from bpy.app.handlers import persistent
+
+from . import constraints, engine, meshio
+from .constraints import SetupError
+
+FRAME_BUDGET_MS = 30.0      # iterations per viewport update before the UI gets control back
+CACHE_BYTES = 256 << 20     # solved poses kept per object (least recently used dropped first)
+PROP_CREATED = "arap_auto_created"   # mesh custom property: what turning Auto on created
+
+_posers = {}     # obj.as_pointer() -> AutoPoser (dropped on undo and load, when pointers change)
+_busy = False    # a handler is writing: its own depsgraph updates must not re-enter
+_timer_on = False
+solve_count = 0  # solve() calls made by Auto mode (tests count them to check idling)
+
+
+class AutoPoser:
+    """One object's bound solver, its cache of solved poses and what was written."""
+
+    def __init__(self, obj, scene):
+        self.problem = engine.Problem(obj, scene)
+        self.solver = engine.configured_solver(self.problem, obj.arap, warm=True)
+        self.output = meshio.Output(obj, self.problem.output)
+        self.fingerprint = engine.topology_counts(obj.data)
+        self.buffer = np.empty(len(self.problem.rest32), np.float32)
+        self.cache = {}          # pose key -> (float32 positions, handle transforms)
+        self.cache_bytes = 0
+        self.written = None      # pose key of the mesh's current coordinates
+        self.pending = None      # pose key being solved across updates (viewport budget)
+        self.iterations = 0      # spent on the pending pose
+        self.max_iterations = obj.arap.iterations   # per pose, as Deform
+        self.ms_per_iteration = 1.0
+        self.current = None      # handle transforms of the solver's current state
+        self.warnings = list(self.problem.setup.warnings)
+
+    def pose(self, obj, depsgraph):
+        """(key, object-local handle transforms) of the evaluated scene."""
+        mats = []
+        for h in self.problem.setup.handles:
+            if not constraints.empty_is_alive(h.empty, None):
+                raise SetupError("The Empty of handle '%s' was deleted" % h.group)
+            mats.append(constraints.matrix_to_numpy(h.empty.evaluated_get(depsgraph).matrix_world))
+        obj_matrix = constraints.matrix_to_numpy(obj.evaluated_get(depsgraph).matrix_world)
+        transforms = constraints.handle_transforms(self.problem.setup, obj_matrix, mats)
+        key = np.concatenate([obj_matrix.ravel()] + [m.ravel() for m in mats]).tobytes()
+        return key, transforms
+
+    def update(self, obj, depsgraph, budget_ms):
+        """Bring the mesh to the current pose. Returns True when it is settled
+        (False: iterations remain, call again). budget_ms None: no limit."""
+        global solve_count
+        key, transforms = self.pose(obj, depsgraph)
+        if key == self.written and self.pending is None:
+            return True
+        hit = self.cache.get(key)
+        if hit is not None:
+            self._write(hit[0], key)
+            return True
+        if self.pending != key:
+            self._start_from_nearest(transforms)
+            self.pending, self.iterations = key, 0
+        targets = constraints.fill_targets(self.problem.setup, self.problem.rest_constrained, transforms,
+                                           self.problem.targets)
+        start = time.perf_counter()
+        while True:
+            # Chunks of iterations that fit the budget (estimated from the last ones).
+            remaining = self.max_iterations - self.iterations
+            left_ms = None if budget_ms is None else budget_ms - (time.perf_counter() - start) * 1e3
+            chunk = remaining if left_ms is None else max(1, min(remaining, int(left_ms / self.ms_per_iteration)))
+            self.solver.max_iterations = chunk
+            stats = self.solver.solve(targets, out=self.buffer)
+            solve_count += 1
+            self.iterations += stats.iterations
+            if stats.iterations:
+                self.ms_per_iteration = max(1e-3, sum(stats.iteration_ms) / stats.iterations)
+            settled = stats.converged or self.iterations >= self.max_iterations
+            if settled or (budget_ms is not None and (time.perf_counter() - start) * 1e3 >= budget_ms):
+                break
+        self._write(self.buffer, key)
+        if settled:
+            self.pending = None
+            self._remember(key, self.buffer.copy(), transforms)
+        return settled
+
+    def _start_from_nearest(self, transforms):
+        """Warm start from the cached pose whose handles were nearest, or from
+        the solver's current state (an unsettled pose) when that is nearer."""
+        def distance(other):
+            return sum(float(np.abs(a - b).sum()) for a, b in zip(transforms, other))
+
+        best = None
+        best_distance = np.inf if self.current is None else distance(self.current)
+        for positions, cached in self.cache.values():
+            d = distance(cached)
+            if d < best_distance:
+                best, best_distance = positions, d
+        if best is not None:
+            self.solver.set_positions(best.reshape(-1, 3).astype(np.float64))
+        self.current = [t.copy() for t in transforms]
+
+    def _remember(self, key, positions, transforms):
+        self.cache[key] = (positions, [t.copy() for t in transforms])
+        self.cache_bytes += positions.nbytes
+        while self.cache_bytes > CACHE_BYTES and len(self.cache) > 1:
+            old = self.cache.pop(next(iter(self.cache)))
+            self.cache_bytes -= old[0].nbytes
+
+    def _write(self, positions, key):
+        self.output.write(positions)
+        self.written = key
+
+
+def _settings_objects(scene):
+    return [ob for ob in scene.objects if ob.type == 'MESH' and ob.arap.auto]
+
+
+def _poser(obj, scene):
+    uid = obj.as_pointer()
+    poser = _posers.get(uid)
+    if poser is not None and poser.fingerprint != engine.topology_counts(obj.data):
+        raise SetupError("'%s' changed its vertices or faces: Auto posing stopped" % obj.name)
+    if poser is None:
+        poser = _posers[uid] = AutoPoser(obj, scene)
+        _created(obj, poser)
+    return poser
+
+
+def _created(obj, poser):
+    """Remember what Auto mode adds to the mesh (the ARAP key or the rest
+    attribute), so that turning it off removes exactly that."""
+    mesh = obj.data
+    if PROP_CREATED in mesh:
+        return
+    made = []
+    if poser.output.mode == 'SHAPE_KEY':
+        if mesh.shape_keys is None:
+            made.append("keys")
+        elif mesh.shape_keys.key_blocks.get(meshio.SHAPE_KEY_NAME) is None:
+            made.append("key")
+    elif not meshio.has_rest_attribute(mesh):
+        made.append("rest")
+        meshio.store_rest(mesh, poser.problem.rest32)
+    mesh[PROP_CREATED] = ",".join(made) or "-"
+    poser.output.ensure()
+
+
+def restore_rest(obj):
+    """Show the rest shape and remove what Auto mode created (bit for bit the
+    state before it was turned on, when nothing else changed in between)."""
+    mesh = obj.data
+    made = set(str(mesh.get(PROP_CREATED, "")).split(","))
+    keys = mesh.shape_keys
+    key = keys.key_blocks.get(meshio.SHAPE_KEY_NAME) if keys is not None else None
+    if "keys" in made and keys is not None:
+        obj.shape_key_clear()
+    elif "key" in made and key is not None:
+        obj.shape_key_remove(key)
+    elif key is not None:
+        key.data.foreach_set("co", meshio.rest_coords(obj, 'SHAPE_KEY'))
+    if meshio.has_rest_attribute(mesh):
+        rest = meshio.rest_coords(obj, 'MESH')
+        if len(rest) == 3 * len(mesh.vertices):
+            mesh.vertices.foreach_set("co", rest)
+        if "rest" in made:
+            mesh.attributes.remove(mesh.attributes[meshio.REST_ATTRIBUTE])
+    if PROP_CREATED in mesh:
+        del mesh[PROP_CREATED]
+    mesh.update()
+
+
+def _restore_in_edit_mode(obj, poser):
+    """Edit Mode owns the mesh: show the rest shape there (the edit then
+    applies to the rest shape, not to a pose)."""
+    if poser is None:
+        return
+    if poser.output.mode == 'SHAPE_KEY':
+        obj.active_shape_key_index = 0   # the Basis: the rest shape
+        return
+    bm = bmesh.from_edit_mesh(obj.data)
+    rest = poser.problem.rest32.reshape(-1, 3)
+    if len(bm.verts) == len(rest):
+        bm.verts.ensure_lookup_table()
+        for v, co in zip(bm.verts, rest):
+            v.co = co
+        bmesh.update_edit_mesh(obj.data)
+
+
+def stop(obj, reason=None):
+    """Turn Auto off for `obj`: rest shape back, state dropped, reason kept."""
+    global _busy
+    poser = _posers.pop(obj.as_pointer(), None)
+    was_busy, _busy = _busy, True
+    try:
+        s = obj.arap
+        if s.auto:
+            s["auto"] = False   # the raw value: do not run the property's update again
+        if obj.mode == 'EDIT':
+            _restore_in_edit_mode(obj, poser)
+        else:
+            restore_rest(obj)
+        s.auto_status = reason or ""
+    finally:
+        _busy = was_busy
+    if reason:
+        print("ARAP Auto:", reason)
+
+
+def forget(obj=None):
+    """Drop bound solvers and caches (all, or one object's): they are rebuilt lazily."""
+    if obj is None:
+        _posers.clear()
+    else:
+        _posers.pop(obj.as_pointer(), None)
+
+
+def _interactive():
+    if bpy.app.background:
+        return False
+    is_running = getattr(bpy.app, "is_job_running", None)
+    return not (is_running is not None and is_running('RENDER'))
+
+
+def update_scene(scene, depsgraph=None):
+    """Pose every Auto object of `scene`; returns True when all are settled."""
+    global _busy
+    if _busy:
+        return True
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    budget = FRAME_BUDGET_MS if _interactive() else None
+    settled = True
+    _busy = True
+    try:
+        for obj in _settings_objects(scene):
+            if engine.session_for(obj) is not None:
+                continue  # Live owns the object while it runs
+            try:
+                if obj.mode == 'EDIT':
+                    raise SetupError("'%s' is in Edit Mode: Auto posing stopped (the rest shape is shown); "
+                                     "turn it on again after editing" % obj.name)
+                settled &= _poser(obj, scene).update(obj, depsgraph, budget)
+            except Exception as exc:  # noqa: BLE001 - a handler must never raise; the reason is kept
+                stop(obj, engine.user_error(exc) or "Auto posing stopped: %s" % exc)
+    finally:
+        _busy = False
+    if not settled:
+        _start_timer()
+    return settled
+
+
+def _start_timer():
+    global _timer_on
+    if not _timer_on and not bpy.app.background:
+        _timer_on = True
+        bpy.app.timers.register(_continue, first_interval=0.0)
+
+
+def _continue():
+    """Timer: go on iterating unsettled poses, one budget per call; stop when settled."""
+    global _timer_on
+    context = bpy.context
+    scene = getattr(context, "scene", None)
+    if scene is None or update_scene(scene):
+        _timer_on = False
+        return None
+    return 0.001
+
+
+@persistent
+def _on_depsgraph_update(scene, depsgraph=None):
+    update_scene(scene, depsgraph)
+
+
+@persistent
+def _on_frame_change(scene, depsgraph=None):
+    update_scene(scene, depsgraph)
+
+
+@persistent
+def _on_load(_file=None, _unused=None):
+    forget()
+
+
+@persistent
+def _on_undo(scene=None, _unused=None):
+    # Undo brings back older objects and meshes: rebind from what they hold now.
+    forget()
+    if scene is not None:
+        update_scene(scene)
+
+
+_HANDLERS = (("depsgraph_update_post", _on_depsgraph_update), ("frame_change_post", _on_frame_change),
+             ("load_post", _on_load), ("undo_post", _on_undo), ("redo_post", _on_undo))
+
+
+def register():
+    for name, fn in _HANDLERS:
+        getattr(bpy.app.handlers, name).append(fn)
+
+
+def unregister():
+    for name, fn in _HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        if fn in handlers:
+            handlers.remove(fn)
+    forget()

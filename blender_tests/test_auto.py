@@ -1,0 +1,269 @@
+# Auto mode: the pose follows the handles through Blender's handlers, like a modifier.
+import os
+import tempfile
+import unittest
+
+import bpy
+import numpy as np
+
+import arap_test_utils as U
+from arap_deform import api, auto, bake
+from arap_deform.constraints import SetupError
+
+FRAMES = range(1, 9)
+
+
+def animate(empty):
+    """Keyframes: the top swings sideways and turns."""
+    for i, f in enumerate(FRAMES):
+        empty.location = (0.15 * i, 0.0, 2.0 + 0.03 * i)
+        empty.rotation_euler = (0.0, 0.05 * i, 0.0)
+        empty.keyframe_insert("location", frame=f)
+        empty.keyframe_insert("rotation_euler", frame=f)
+
+
+def scale_of(coords):
+    return float(np.ptp(coords, axis=0).max())
+
+
+class Auto(unittest.TestCase):
+    def setUp(self):
+        U.clear_scene()
+        auto.forget()
+        bpy.context.scene.frame_set(1)
+        self.obj, self.empty, self.fixed, self.top = U.bar_with_handle()
+        self.rest = U.raw_coords(self.obj).copy()
+        self.rest3 = self.rest.reshape(-1, 3).astype(np.float64)
+
+    def tearDown(self):
+        if self.obj.name in bpy.data.objects and self.obj.arap.auto:
+            api.set_auto(self.obj, False)
+
+    def top_motion(self):
+        return U.coords(self.obj)[self.top] - self.rest3[self.top]
+
+    def test_follows_a_moved_empty_and_idles(self):
+        api.set_auto(self.obj, True)
+        np.testing.assert_allclose(U.raw_coords(self.obj), self.rest, atol=1e-6)  # the handle has not moved yet
+        self.empty.location.x += 0.4
+        bpy.context.view_layer.update()   # a depsgraph update, as any edit in the UI makes
+        np.testing.assert_allclose(self.top_motion(), np.tile((0.4, 0, 0), (len(self.top), 1)), atol=1e-5)
+        np.testing.assert_allclose(U.coords(self.obj)[self.fixed], self.rest3[self.fixed], atol=1e-6)
+        # Nothing that affects the pose changes: no solve, however many updates.
+        count = auto.solve_count
+        for _ in range(5):
+            self.obj.select_set(not self.obj.select_get())
+            bpy.context.view_layer.update()
+            bpy.context.scene.frame_set(bpy.context.scene.frame_current)
+        self.assertEqual(auto.solve_count, count)
+
+    def test_a_small_budget_spreads_the_iterations_over_updates(self):
+        # In the viewport one update may only spend a frame's budget; the pose
+        # then settles over the next updates (a timer), each going on from the last.
+        api.set_auto(self.obj, True)
+        poser = auto._posers[self.obj.as_pointer()]
+        self.empty.location = (0.9, 0.3, 1.7)
+        auto._busy = True   # keep the handler (which solves fully in --background) out of this update
+        try:
+            depsgraph = bpy.context.evaluated_depsgraph_get()
+        finally:
+            auto._busy = False
+        updates = 1
+        while not poser.update(self.obj, depsgraph, budget_ms=1e-6):   # one iteration per update
+            updates += 1
+            self.assertLess(updates, 500)
+        self.assertGreater(updates, 3)
+        self.assertEqual(poser.iterations, updates)
+        spread = U.coords(self.obj)
+        api.set_auto(self.obj, False)
+        api.deform(self.obj, tolerance=self.obj.arap.tolerance)
+        np.testing.assert_allclose(spread, U.coords(self.obj), atol=1e-3 * scale_of(spread))
+
+    def test_the_pose_equals_deform(self):
+        self.empty.location = (0.5, 0.2, 2.1)
+        api.set_auto(self.obj, True)
+        posed = U.coords(self.obj)
+        api.set_auto(self.obj, False)
+        api.deform(self.obj)
+        np.testing.assert_allclose(posed, U.coords(self.obj), atol=1e-4 * scale_of(posed))
+
+    def test_frame_set_poses_each_frame_and_scrubbing_writes_cached_poses(self):
+        animate(self.empty)
+        api.set_auto(self.obj, True)
+        played = []
+        for f in FRAMES:
+            bpy.context.scene.frame_set(f)
+            played.append(U.coords(self.obj))
+        self.assertGreater(np.abs(played[-1] - played[0]).max(), 0.5)
+        count = auto.solve_count
+        for f in reversed(FRAMES):   # scrubbing back: every frame is in the cache
+            bpy.context.scene.frame_set(f)
+            np.testing.assert_array_equal(U.coords(self.obj), played[f - 1])
+        self.assertEqual(auto.solve_count, count)
+
+    def test_frames_do_not_depend_on_the_path(self):
+        # Sequential play vs. jumping straight to frames in a shuffled order (a
+        # fresh cache) vs. the bake: the same pose within the tolerance.
+        animate(self.empty)
+        api.set_auto(self.obj, True)
+        played = {}
+        for f in FRAMES:
+            bpy.context.scene.frame_set(f)
+            played[f] = U.coords(self.obj)
+        auto.forget()
+        order = [5, 2, 8, 1, 7, 3, 6, 4]
+        worst = 0.0
+        for f in order:
+            bpy.context.scene.frame_set(f)
+            worst = max(worst, np.abs(U.coords(self.obj) - played[f]).max())
+        api.set_auto(self.obj, False)
+        baked = bake.bake_shape_keys(self.obj, FRAMES[0], FRAMES[-1]).positions
+        bake.clear_bake(self.obj)
+        worst_bake = max(np.abs(baked[i] - played[f]).max() for i, f in enumerate(FRAMES))
+        size = scale_of(self.rest3)
+        print("path independence: worst scrub difference %.2e, vs bake %.2e (size %.2f)" % (worst, worst_bake, size))
+        self.assertLess(worst, 1e-3 * size)
+        self.assertLess(worst_bake, 1e-3 * size)
+
+    def test_turning_off_restores_the_mesh_bit_for_bit(self):
+        attributes = {a.name for a in self.obj.data.attributes}
+        api.set_auto(self.obj, True)
+        self.empty.location.x += 0.6
+        bpy.context.view_layer.update()
+        self.assertFalse(np.array_equal(U.raw_coords(self.obj), self.rest))
+        api.set_auto(self.obj, False)
+        np.testing.assert_array_equal(U.raw_coords(self.obj), self.rest)
+        self.assertEqual({a.name for a in self.obj.data.attributes}, attributes)
+        self.assertNotIn(auto.PROP_CREATED, self.obj.data)
+
+    def test_shape_key_result_and_off(self):
+        self.obj.shape_key_add(name="Basis", from_mix=False)
+        api.set_auto(self.obj, True)
+        self.empty.location.x += 0.6
+        bpy.context.view_layer.update()
+        key = self.obj.data.shape_keys.key_blocks["ARAP"]
+        self.assertGreater(np.abs(U.evaluated_coords(self.obj) - self.rest3).max(), 0.5)
+        basis = np.empty(len(self.rest), np.float32)
+        self.obj.data.shape_keys.reference_key.data.foreach_get("co", basis)
+        np.testing.assert_array_equal(basis, self.rest)  # the rest shape (Basis) is never touched
+        self.assertIsNotNone(key)
+        api.set_auto(self.obj, False)
+        self.assertEqual([kb.name for kb in self.obj.data.shape_keys.key_blocks], ["Basis"])
+        np.testing.assert_allclose(U.evaluated_coords(self.obj), self.rest3, atol=0)
+
+    def test_deleted_empty_stops_auto_at_rest(self):
+        api.set_auto(self.obj, True)
+        self.empty.location.x += 0.6
+        bpy.context.view_layer.update()
+        bpy.data.objects.remove(self.empty)
+        bpy.context.view_layer.update()   # the handler must not raise
+        self.assertFalse(self.obj.arap.auto)
+        self.assertIn("deleted", self.obj.arap.auto_status)
+        np.testing.assert_array_equal(U.raw_coords(self.obj), self.rest)
+        with self.assertRaises(SetupError):
+            api.set_auto(self.obj, True)   # and a clear error when turned on again
+        self.assertFalse(self.obj.arap.auto)
+
+    def test_vertex_count_change_stops_auto(self):
+        api.set_auto(self.obj, True)
+        self.obj.data.vertices.add(1)
+        bpy.context.view_layer.update()
+        self.assertFalse(self.obj.arap.auto)
+        self.assertIn("changed its vertices", self.obj.arap.auto_status)
+
+    def test_edit_mode_stops_auto_and_shows_the_rest_shape(self):
+        api.set_auto(self.obj, True)
+        self.empty.location.x += 0.6
+        bpy.context.view_layer.update()
+        bpy.context.view_layer.objects.active = self.obj
+        bpy.ops.object.mode_set(mode='EDIT')
+        bpy.context.view_layer.update()
+        bpy.ops.object.mode_set(mode='OBJECT')
+        self.assertFalse(self.obj.arap.auto)
+        self.assertIn("Edit Mode", self.obj.arap.auto_status)
+        np.testing.assert_allclose(U.raw_coords(self.obj), self.rest, atol=0)
+
+    def test_live_owns_the_object_while_it_runs(self):
+        api.set_auto(self.obj, True)
+        session = api.start_session(self.obj)
+        count = auto.solve_count
+        self.empty.location.x += 0.3
+        bpy.context.view_layer.update()
+        self.assertEqual(auto.solve_count, count)
+        session.step()
+        session.cancel()
+
+    def test_save_and_reload(self):
+        animate(self.empty)
+        api.set_auto(self.obj, True)
+        bpy.context.scene.frame_set(4)
+        at4 = U.coords(self.obj)
+        path = os.path.join(tempfile.mkdtemp(prefix="arap_auto_"), "auto.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=path)
+        bpy.ops.wm.open_mainfile(filepath=path)
+        obj = bpy.data.objects["Bar"]
+        self.obj = obj
+        self.assertTrue(obj.arap.auto)
+        bpy.context.scene.frame_set(6)   # binds again lazily
+        bpy.context.scene.frame_set(4)
+        np.testing.assert_allclose(U.coords(obj), at4, atol=1e-4 * scale_of(at4))
+
+    def test_undo_brings_back_the_pose_of_the_restored_handles(self):
+        api.set_auto(self.obj, True)
+        self.empty.location.x += 0.3
+        bpy.context.view_layer.update()
+        first = U.coords(self.obj)
+        bpy.ops.ed.undo_push(message="first move")
+        bpy.data.objects["TopEmpty"].location.x += 0.4
+        bpy.context.view_layer.update()
+        bpy.ops.ed.undo_push(message="second move")
+        self.assertGreater(np.abs(U.coords(bpy.data.objects["Bar"]) - first).max(), 0.3)
+        bpy.ops.ed.undo()
+        obj = bpy.data.objects["Bar"]
+        self.obj = obj
+        self.assertTrue(obj.arap.auto)
+        np.testing.assert_allclose(U.coords(obj), first, atol=1e-4 * scale_of(first))
+
+
+class AutoRender(unittest.TestCase):
+    def test_render_anim_and_single_frames_pose_the_mesh(self):
+        U.clear_scene()
+        obj, empty, _fixed, _top = U.bar_with_handle()
+        animate(empty)
+        scene = bpy.context.scene
+        scene.frame_start, scene.frame_end = 1, 8
+        cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+        scene.collection.objects.link(cam)
+        cam.location = (0.0, -12.0, 0.5)
+        cam.rotation_euler = (1.5708, 0.0, 0.0)
+        scene.camera = cam
+        scene.render.engine = 'BLENDER_WORKBENCH'
+        scene.render.resolution_x = scene.render.resolution_y = 96
+        scene.render.image_settings.file_format = 'PNG'
+        api.set_auto(obj, True)
+        tmp = tempfile.mkdtemp(prefix="arap_auto_render_")
+        scene.render.filepath = os.path.join(tmp, "anim_")
+        path = os.path.join(tmp, "auto.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=path, copy=True)
+        api.set_auto(obj, False)
+        # A new Blender renders the file: frames 1 and 8 of --render-anim, and -f 8 alone.
+        U.run_blender_args([path, "--addons", U.ADDON_MODULE, "-s", "1", "-e", "8", "-j", "7", "--render-anim"],
+                           factory_startup=False)
+        U.run_blender_args([path, "--addons", U.ADDON_MODULE, "-o", os.path.join(tmp, "single_"), "-f", "8"],
+                           factory_startup=False)
+        frames = [self.pixels(os.path.join(tmp, name)) for name in ("anim_0001.png", "anim_0008.png",
+                                                                     "single_0008.png")]
+        self.assertGreater(np.abs(frames[0] - frames[1]).max(), 0.2)   # the bar bends as the handle moves
+        np.testing.assert_allclose(frames[1], frames[2], atol=2 / 255)  # -f 8 alone gives the same picture
+
+    def pixels(self, path):
+        self.assertTrue(os.path.exists(path), path)
+        image = bpy.data.images.load(path)
+        try:
+            return np.array(image.pixels[:], np.float32)
+        finally:
+            bpy.data.images.remove(image)
+
+
+if __name__ == "__main__":
+    unittest.main()
