@@ -423,8 +423,13 @@ TEST(Stiffness, UniformScaleChangesTheEnergyNotTheShape) {
   scaled.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Laplacian, 40),
               std::vector<double>(t.mesh.V.rows(), 3.0));
   const auto a = plain.solve(t.targets), b = scaled.solve(t.targets);
+  // The quasi-Newton method is scale-invariant but for rounding, which can steer its line
+  // search differently: the same shape to 1e-7 (the tube is 6 long), the textbook one exactly.
+  EXPECT_LT((plain.positions() - scaled.positions()).cwiseAbs().maxCoeff(), 1e-7);
+  EXPECT_NEAR(b.energy.back(), 3.0 * a.energy.back(), 1e-8 * a.energy.back());
+  for (arap::Solver* s : {&plain, &scaled}) s->options().method = arap::Method::LocalGlobal;
+  plain.solve(t.targets), scaled.solve(t.targets);
   EXPECT_LT((plain.positions() - scaled.positions()).cwiseAbs().maxCoeff(), 1e-9);
-  EXPECT_NEAR(b.energy.back(), 3.0 * a.energy.back(), 1e-9 * a.energy.back());
 }
 
 TEST(Stiffness, GradientMatchesFiniteDifferencesAndEnergyNeverIncreases) {
