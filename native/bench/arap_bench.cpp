@@ -561,7 +561,8 @@ int main(int argc, char** argv) {
             std::cerr << "  ours " << r["weights"].get<std::string>() << (anderson ? " +AA" : "") << " x" << threads
                       << ": bind " << fmt(r["bind_ms"]) << " ms, iteration " << fmt(r["iteration_ms"]["median"])
                       << " ms, E_ref " << fmt(r["reference_energy"], "%.6g") << std::endl;
-            if (w == arap::Weights::CotanClamped && !anderson) reference_clamped = r["reference_energy"].get<double>();
+            if (w == arap::Weights::CotanClamped && !anderson && main_count)
+              reference_clamped = r["reference_energy"].get<double>();
             m["runs"].push_back(std::move(r));
           }
         }
