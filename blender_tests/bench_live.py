@@ -296,8 +296,8 @@ def main():
                     "%.0f ms); the empty dragged 0.25 h sideways over 10 updates, then left alone. From its last "
                     "move until Live sleeps (step() returns None): updates, CPU ms and wall ms of the solving, "
                     "and the wall time in a viewport whose timer ticks at 30 Hz; then the CPU one idle update "
-                    "costs, and the largest distance of the settled pose from the converged one-shot solve "
-                    "(tolerance 1e-10), relative to the tube's height.\n\n"
+                    "costs, and the largest distance of the settled pose from the converged pose (the same "
+                    "solver continued to tolerance 1e-10), relative to the tube's height.\n\n"
                     % (settle[0]["method"], settle[0]["frame_budget_ms"]))
             f.write("| V | updates | CPU ms | wall ms | at 30 Hz | idle update (CPU ms) | idle CPU at 30 Hz "
                     "| distance / h |\n|---:|---:|---:|---:|---:|---:|---:|---:|\n")
