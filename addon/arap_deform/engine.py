@@ -421,7 +421,7 @@ class LiveSession:
 
     @property
     def settled(self):
-        """The last step converged and nothing has been seen moving since."""
+        """The last update's solve converged: until something moves, step(force=False) does nothing."""
         return self.converged
 
     def step(self, force=True):
