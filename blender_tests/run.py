@@ -6,12 +6,15 @@
 # The add-on is found via BLENDER_USER_SCRIPTS (Blender 3.x) or
 # BLENDER_USER_EXTENSIONS (4.2+): ctest points them at folders that link to
 # the staged add-on in the build tree, and ARAP_ADDON_MODULE names the module.
-# Exit code: 0 only when every test passed and at least one ran.
+# Exit code: 0 only when every test passed and at least one ran; 77 (SKIPPED, ctest's
+# SKIP_RETURN_CODE) when every test was skipped, so ctest reports it as not run.
 import importlib.util
 import os
 import sys
 import traceback
 import unittest
+
+SKIPPED = 77
 
 
 def main():
@@ -39,10 +42,12 @@ def main():
         suite = loader.loadTestsFromModule(test_module)
     result = unittest.TextTestRunner(stream=sys.stdout, verbosity=2).run(suite)
     ok = result.wasSuccessful() and result.testsRun > 0
-    print("ARAP blender test %s: %s (%d run)" % (os.path.basename(path), "OK" if ok else "FAILED", result.testsRun))
+    skipped = ok and len(result.skipped) == result.testsRun
+    print("ARAP blender test %s: %s (%d run)" % (os.path.basename(path),
+                                                 "SKIPPED" if skipped else "OK" if ok else "FAILED", result.testsRun))
     sys.stdout.flush()
     # os._exit: Blender's own exit path would otherwise decide the code.
-    os._exit(0 if ok else 1)
+    os._exit(SKIPPED if skipped else 0 if ok else 1)
 
 
 main()

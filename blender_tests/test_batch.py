@@ -1,6 +1,7 @@
 # arap-batch end to end: the launcher (plain python3) runs Blender workers on
 # .blend files this test generates; report, exit code, outputs, inputs untouched,
-# --in-place, a crashing worker, Ctrl-C, and --bake.
+# --in-place, a crashing worker, Ctrl-C, --bake, and what a farm uses: --shard,
+# merge-reports, --rerun-failed, --files-from, --results-log (Slurm itself: test_slurm.py).
 #
 # The launcher is the build tree's arap-batch, found next to the staged add-on
 # (<build>/addon/arap_deform -> <build>/arap-batch) or via ARAP_BATCH_LAUNCHER.
@@ -12,6 +13,7 @@ import shutil
 import signal
 import subprocess
 import tempfile
+import time
 import unittest
 
 import bpy
@@ -53,6 +55,15 @@ def hashes(folder):
 
 def temp_leftovers(*folders):
     return [n for d in folders for n in os.listdir(d) if "arap-tmp" in n or ".tmp-" in n or n.endswith("@")]
+
+
+def running(pid):
+    """The process exists and is not a zombie waiting for its parent."""
+    try:
+        with open("/proc/%d/stat" % pid) as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
 
 
 def blender_env():
@@ -255,6 +266,167 @@ class Batch(unittest.TestCase):
         for f in done:  # every finished output is a whole, readable .blend
             posed, _k, _m = load_object(f["output"])
             self.assertGreater(posed[:, 0].max(), 1.0)
+
+    def test_shards_merge_to_the_unsharded_run(self):
+        src, out_all, out_sharded = self.folder("in"), self.folder("all"), self.folder("sharded")
+        for k in range(3):
+            S.make_good(os.path.join(src, "good%d.blend" % k), dx=0.3 + 0.2 * k)
+        S.make_corrupt(os.path.join(src, "corrupt.blend"))
+        S.make_missing_empty(os.path.join(src, "no_empty.blend"))
+        names = sorted(os.listdir(src))
+        whole = os.path.join(self.root, "whole.json")
+        self.assertEqual(run_batch(src, "--output", out_all, "--jobs", 1, "--frame", 1, "--report", whole)[0], 1)
+        parts, codes = [], []
+        for k in range(2):
+            parts.append(os.path.join(self.root, "shard-%d.json" % k))
+            code, text = run_batch(src, "--output", out_sharded, "--jobs", 1, "--frame", 1, "--shard", "%d/2" % k,
+                                   "--report", parts[-1])
+            codes.append(code)
+            with open(parts[-1]) as f:
+                r = json.load(f)
+            self.assertEqual(r["shard"], [k, 2])
+            self.assertEqual([os.path.basename(x["input"]) for x in r["files"]], names[k::2])
+        # shard 0: corrupt, good1, no_empty -> 1; shard 1: good0, good2 -> 0 (exit codes of those files alone)
+        self.assertEqual(codes, [1, 0])
+        self.assertEqual(sorted(os.listdir(out_sharded)), sorted(os.listdir(out_all)))
+        for name in os.listdir(out_all):
+            self.assertTrue(np.array_equal(load_object(os.path.join(out_sharded, name))[0],
+                                           load_object(os.path.join(out_all, name))[0]), name)
+
+        merged = os.path.join(self.root, "merged.json")
+        code, text = run_batch("merge-reports", *parts, "--report", merged)
+        self.assertEqual(code, 1, text)
+        self.assertIn("5 file(s): 3 ok, 2 failed", text)
+        with open(whole) as f:
+            expected = {os.path.basename(x["input"]): (x["status"], x["reason"]) for x in json.load(f)["files"]}
+        with open(merged) as f:
+            m = json.load(f)
+        self.assertEqual({os.path.basename(x["input"]): (x["status"], x["reason"]) for x in m["files"]}, expected)
+        self.assertEqual((m["ok"], m["failed"], m.get("missing_shards")), (3, 2, None))
+        # A shard's report left out: the merge says so and does not pass.
+        code, text = run_batch("merge-reports", parts[1], "--report", merged)
+        self.assertEqual(code, 1, text)
+        self.assertIn("missing: the report of shard 0/2", text)
+        # Reports of runs with other settings do not merge.
+        other = os.path.join(self.root, "other.json")
+        run_batch(src, "--output", out_sharded, "--jobs", 1, "--frame", 2, "--shard", "0/2", "--report", other)
+        code, text = run_batch("merge-reports", parts[1], other, "--report", merged)
+        self.assertEqual(code, 2, text)
+        self.assertIn("different settings (frame 1 vs 2)", text)
+
+    def test_empty_shard_and_shard_usage_errors(self):
+        src, out = self.folder("in"), self.folder("out")
+        S.make_good(os.path.join(src, "a.blend"))
+        report = os.path.join(self.root, "empty-shard.json")
+        code, text = run_batch(src, "--output", out, "--shard", "1/2", "--report", report)
+        self.assertEqual(code, 0, text)
+        self.assertIn("0 file(s): 0 ok, 0 failed", text)
+        with open(report) as f:
+            self.assertEqual(json.load(f)["files"], [])
+        self.assertEqual(os.listdir(out), [])
+        for bad in ("2/2", "1", "-1/2", "a/b"):
+            self.assertEqual(run_batch(src, "--output", out, "--shard", bad)[0], 2, bad)
+        self.assertEqual(run_batch(src, "--output", out, "--shards", 2)[0], 2)             # only with slurm
+        self.assertEqual(run_batch(src, "--output", out, "--scheduler", "slurm")[0], 2)    # needs --report
+        self.assertEqual(run_batch("merge-reports", os.path.join(src, "a.blend"), "--report", report)[0], 2)
+
+    def test_rerun_failed_runs_only_those_and_updates_the_report(self):
+        src, out = self.folder("in"), self.folder("out")
+        for name in ("a", "b"):
+            S.make_good(os.path.join(src, name + ".blend"))
+        S.make_missing_empty(os.path.join(src, "c.blend"))
+        listed = os.path.join(self.root, "list.txt")
+        with open(listed, "w") as f:
+            f.write("# the shots\n%s\n\n%s\n" % (os.path.join(src, "a.blend"), os.path.join(src, "c.blend")))
+        report = os.path.join(self.root, "rerun.json")
+        code, text = run_batch(os.path.join(src, "b.blend"), "--files-from", listed, "--output", out, "--jobs", 1,
+                               "--frame", 1, "--report", report)
+        self.assertEqual(code, 1, text)
+        self.assertIn("3 file(s): 2 ok, 1 failed", text)
+        done = {f: os.stat(os.path.join(out, f)).st_mtime_ns for f in os.listdir(out)}
+        self.assertEqual(sorted(done), ["a.blend", "b.blend"])
+        code, text = run_batch("--rerun-failed", report, "--frame", 2)
+        self.assertEqual(code, 2, text)                       # settings come from the report
+        self.assertIn("drop --frame", text)
+
+        S.make_good(os.path.join(src, "c.blend"))             # the shot is fixed
+        code, text = run_batch("--rerun-failed", report)
+        self.assertEqual(code, 0, text)
+        self.assertIn("1 file(s): 1 ok, 0 failed", text)
+        with open(report) as f:
+            r = json.load(f)
+        self.assertEqual((r["ok"], r["failed"], len(r["files"])), (3, 0, 3))
+        self.assertEqual(r["mode"]["frame"], 1)
+        for name, mtime in done.items():
+            self.assertEqual(os.stat(os.path.join(out, name)).st_mtime_ns, mtime, name)
+        self.assertEqual(sorted(os.listdir(out)), ["a.blend", "b.blend", "c.blend"])
+        code, text = run_batch("--rerun-failed", report)
+        self.assertEqual(code, 0, text)
+        self.assertIn("Nothing to rerun", text)
+
+    def test_listed_file_that_is_missing_fails_alone(self):
+        src, out = self.folder("in"), self.folder("out")
+        S.make_good(os.path.join(src, "a.blend"))
+        listed = os.path.join(self.root, "missing-list.txt")
+        with open(listed, "w") as f:
+            f.write("%s\n%s\n" % (os.path.join(src, "a.blend"), os.path.join(src, "gone.blend")))
+        results = os.path.join(self.root, "results.jsonl")
+        code, text = run_batch("--files-from", listed, "--output", out, "--results-log", results)
+        self.assertEqual(code, 1, text)
+        self.assertIn("failed: %s: input file not found" % os.path.join(src, "gone.blend"), text)
+        with open(results) as f:
+            lines = [json.loads(l) for l in f]
+        self.assertEqual(sorted((os.path.basename(x["input"]), x["status"]) for x in lines),
+                         [("a.blend", "ok"), ("gone.blend", "failed")])
+
+    def test_sigterm_to_workers_and_launcher_is_an_interrupt(self):
+        # What a scheduler cancelling a task does: SIGTERM to every process of the task,
+        # here the worker first. The file being posed is "interrupted", not a crash.
+        src, out = self.folder("in"), self.folder("out")
+        for name in ("a", "b_slow"):
+            S.make_good(os.path.join(src, name + ".blend"))
+        pid_file = os.path.join(self.root, "slow-worker.pid")
+        wrapper = patched_blender(self.root, "pid-blender", "'b_slow' in e['input'] and (open(%r, 'w').write("
+                                  "str(os.getpid())), time.sleep(120))" % pid_file)
+        report = os.path.join(self.root, "sigterm.json")
+        p = subprocess.Popen([PYTHON, LAUNCHER, src, "--output", out, "--jobs", "1", "--blender", wrapper,
+                              "--report", report], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        deadline = time.monotonic() + 120
+        while not (os.path.exists(pid_file) and os.path.getsize(pid_file)) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        with open(pid_file) as f:
+            os.kill(int(f.read()), signal.SIGTERM)
+        time.sleep(0.3)
+        p.send_signal(signal.SIGTERM)
+        text = p.communicate(timeout=60)[0]
+        self.assertEqual(p.returncode, 130, text)
+        with open(report) as f:
+            files = {os.path.basename(x["input"]): (x["status"], x["reason"]) for x in json.load(f)["files"]}
+        self.assertEqual(files, {"a.blend": ("ok", ""), "b_slow.blend": ("interrupted", "not processed (interrupted)")})
+        self.assertEqual(temp_leftovers(out), [])
+
+    def test_workers_end_with_a_killed_launcher(self):
+        # SIGKILL to the launcher (an out-of-memory kill) cannot be handled by it: its workers,
+        # each in its own session, must end on their own instead of posing on for no one.
+        src, out = self.folder("in"), self.folder("out")
+        S.make_good(os.path.join(src, "b_slow.blend"))
+        pid_file = os.path.join(self.root, "orphan-worker.pid")
+        wrapper = patched_blender(self.root, "orphan-blender", "'b_slow' in e['input'] and (open(%r, 'w').write("
+                                  "str(os.getpid())), time.sleep(120))" % pid_file)
+        p = subprocess.Popen([PYTHON, LAUNCHER, src, "--output", out, "--jobs", "1", "--blender", wrapper],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        deadline = time.monotonic() + 120
+        while not (os.path.exists(pid_file) and os.path.getsize(pid_file)) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        with open(pid_file) as f:
+            worker = int(f.read())
+        p.kill()
+        p.wait()
+        deadline = time.monotonic() + 30
+        while running(worker) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        self.assertFalse(running(worker), "the worker outlived its launcher")
+        self.assertEqual(temp_leftovers(out), [])
 
     def test_bake_shape_keys_and_pc2(self):
         src, out_sk, out_pc = self.folder("in"), self.folder("sk"), self.folder("pc2")

@@ -2,7 +2,8 @@
 #
 # Runs `blender --background --factory-startup -noaudio --python-exit-code 1
 # --python <runner> -- <args>` as one ctest entry. The exit-code flag must come
-# before --python, otherwise a Python error still exits 0.
+# before --python, otherwise a Python error still exits 0. Exit code 77 (run.py: every
+# test skipped) makes ctest report the entry as skipped, not passed.
 # The add-on is found through BLENDER_USER_SCRIPTS (see blender_tests/CMakeLists.txt);
 # BLENDER_USER_CONFIG points at a scratch folder so the user's preferences are never read or written.
 function(arap_add_blender_test)
@@ -19,5 +20,6 @@ function(arap_add_blender_test)
     LABELS "${T_LABELS}"
     TIMEOUT ${T_TIMEOUT}
     WILL_FAIL ${T_WILL_FAIL}
+    SKIP_RETURN_CODE 77
     ENVIRONMENT "BLENDER_USER_CONFIG=${_config};PYTHONDONTWRITEBYTECODE=1;${T_ENVIRONMENT}")
 endfunction()

@@ -14,7 +14,8 @@ job.json:
      "bake_format": "shapekeys" | "pc2",
      "iterations": null | N,          # Deform iterations, or per-frame maximum when baking
      "objects": [] | ["Name", ...],   # default: every mesh with ARAP settings
-     "results": null | "/path/results.jsonl"}
+     "results": null | "/path/results.jsonl",
+     "launcher_pid": null | PID}      # stop (SIGTERM) when this process dies
 
 Or, for one file (e.g. one farm task), the same settings as flags:
 
@@ -192,6 +193,29 @@ def _on_sigterm(_signum, _frame):
         raise Interrupted()
 
 
+def _end_with_launcher(launcher_pid):
+    """Linux: have the kernel send SIGTERM when the launcher that started this worker dies.
+
+    A launcher killed outright (SIGKILL: an out-of-memory kill, a farm task's hard stop)
+    cannot stop its workers, and a worker in its own session escapes schedulers that
+    track a task's processes by parentage (Slurm's proctrack/linuxproc): without this
+    it would go on posing files for no one. The signal comes when the direct parent
+    dies (the launcher, or a wrapper script given as --blender); elsewhere than Linux
+    only the check below is made."""
+    try:
+        import ctypes
+        PR_SET_PDEATHSIG = 1
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+    except Exception:  # noqa: BLE001 - no prctl (macOS, Windows): keep the check only
+        pass
+    try:
+        os.kill(launcher_pid, 0)    # gone already, before the call above?
+    except ProcessLookupError:
+        _on_sigterm(signal.SIGTERM, None)
+    except OSError:
+        pass
+
+
 def parse_job(argv):
     """The job from `job.json` or from --input/--output flags (one file)."""
     if len(argv) == 1 and not argv[0].startswith("-"):
@@ -224,10 +248,12 @@ def main(argv=None):
         sys.stdout.flush()
         os._exit(exc.code if isinstance(exc.code, int) else 2)
     signal.signal(signal.SIGTERM, _on_sigterm)
-    _ensure_addon()
-    results = job.get("results")
     failed = 0
     try:
+        if job.get("launcher_pid"):
+            _end_with_launcher(job["launcher_pid"])
+        _ensure_addon()
+        results = job.get("results")
         for entry in job["files"]:
             if _Stop.requested:
                 raise Interrupted()

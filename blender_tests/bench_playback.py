@@ -1,0 +1,249 @@
+# Playback of an animated handle: Auto mode next to Blender's Laplacian Deform
+# + Hook, on the tube scene (tube_scene.py), same keyframes, same anchors.
+#
+# Headless (frame_set, as --render-anim and batch scripts change frames):
+#   blender --background --factory-startup -noaudio --python-exit-code 1 \
+#       --python blender_tests/bench_playback.py -- [--addon-dir BUILD/addon] [--sizes 10000,50000] \
+#       [--frames 48] [--output DIR]
+# In the viewport (a real window; Xvfb works), Blender's own playback (Spacebar):
+#   xvfb-run -a -s "-screen 0 1280x800x24" blender --factory-startup -noaudio \
+#       --python blender_tests/bench_playback.py -- --viewport [same options]
+#
+# Headless, per frame (wall ms, median): the first pass solves each frame
+# (warm-started from the previous one, to the tolerance), the second replays
+# the cached poses; then the path check: the cache dropped, the frames visited
+# in a shuffled order, and a bake of the range, against the first pass (worst
+# vertex difference / tube height). Viewport: frames per second of playback
+# (frame-change times, sync mode "play every frame", scene rate 60 fps).
+# Not part of ctest (its name is not test_*.py). Writes blender_playback*.md/.json.
+import argparse
+import json
+import os
+import random
+import statistics
+import sys
+import time
+
+import bpy
+import numpy as np
+from mathutils import Vector
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from tube_scene import add_empty, add_group, clear_scene, laplacian_with_hook, make_tube, offsets  # noqa: E402
+
+
+def parse_args():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    p = argparse.ArgumentParser(prog="bench_playback.py")
+    p.add_argument("--addon-dir", default="")
+    p.add_argument("--sizes", default="10000,50000")
+    p.add_argument("--frames", type=int, default=48)
+    p.add_argument("--iterations", type=int, default=1, help="Laplacian Deform's iterations")
+    p.add_argument("--viewport", action="store_true")
+    p.add_argument("--output", default="results")
+    return p.parse_args(argv)
+
+
+def load_addon(addon_dir):
+    if addon_dir:
+        sys.path.insert(0, os.path.abspath(addon_dir))
+        import arap_deform
+        arap_deform.register()
+    else:
+        import addon_utils
+        module = os.environ.get("ARAP_ADDON_MODULE", "arap_deform")
+        if addon_utils.enable(module, default_set=True) is None:
+            raise SystemExit("could not enable %s (give --addon-dir or set BLENDER_USER_SCRIPTS)" % module)
+    from arap_deform import api, auto, bake
+    return api, auto, bake
+
+
+def animated_tube(name, vertices, frames):
+    """The tube and its handle Empty, keyframed on a sideways sweep over `frames` frames."""
+    obj, fixed, top, h = make_tube(name, vertices)
+    start = Vector((0.0, 0.0, h))
+    empty = add_empty(name + "Handle", start)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, frames
+    for f, dx in zip(range(1, frames + 1), [0.0] + offsets(frames - 1, h)):
+        empty.location = start + Vector((dx, 0.0, 0.0))
+        empty.keyframe_insert("location", frame=f)
+    scene.frame_set(1)
+    return obj, fixed, top, h, empty, start
+
+
+def coords(obj):
+    buf = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", buf)
+    return buf.reshape(-1, 3).astype(np.float64)
+
+
+def timed_pass(frames, read=None):
+    ms, poses = [], {}
+    for f in frames:
+        t = time.perf_counter()
+        bpy.context.scene.frame_set(f)
+        ms.append((time.perf_counter() - t) * 1e3)
+        if read is not None:
+            poses[f] = read()
+    return ms, poses
+
+
+def ours_headless(api, auto, bake, n, frames):
+    obj, fixed, top, h, empty, _start = animated_tube("ArapTube", n, frames)
+    add_group(obj, "fixed", fixed)
+    add_group(obj, "top", top)
+    api.set_fixed(obj, "fixed")
+    api.add_handle(obj, "top", empty)
+    t = time.perf_counter()
+    api.set_auto(obj, True)   # binds and poses frame 1
+    bind_ms = (time.perf_counter() - t) * 1e3
+    order = list(range(2, frames + 1))
+    solved, played = timed_pass(order, lambda: coords(obj))
+    print("  Auto, solving: %.1f ms/frame" % med(solved), flush=True)
+    cached, _ = timed_pass(order)
+    auto.forget()
+    shuffled = order[:]
+    random.Random(1).shuffle(shuffled)
+    _ms, scrubbed = timed_pass(shuffled, lambda: coords(obj))
+    worst_scrub = max(np.abs(scrubbed[f] - played[f]).max() for f in order) / h
+    print("  scrubbed in a shuffled order: worst difference %.1e of the height" % worst_scrub, flush=True)
+    api.set_auto(obj, False)
+    baked = bake.bake_shape_keys(obj, 2, frames).positions
+    worst_bake = max(np.abs(baked[i] - played[f]).max() for i, f in enumerate(order)) / h
+    bake.clear_bake(obj)
+    return {"vertices": len(obj.data.vertices), "bind_and_first_ms": bind_ms, "solved_ms": solved,
+            "cached_ms": cached, "worst_scrub": worst_scrub, "worst_bake": worst_bake}
+
+
+def laplacian_headless(n, frames, iterations):
+    obj, fixed, top, h, empty, start = animated_tube("LapTube", n, frames)
+    bind_ms = laplacian_with_hook(obj, fixed, top, empty, start, iterations)
+    ms, _ = timed_pass(list(range(2, frames + 1)))
+    return {"vertices": len(obj.data.vertices), "bind_ms": bind_ms, "frame_ms": ms}
+
+
+def med(values):
+    return statistics.median(values)
+
+
+def headless(args, api, auto, bake):
+    rows = []
+    for n in [int(x) for x in args.sizes.split(",") if x]:
+        clear_scene()
+        ours = ours_headless(api, auto, bake, n, args.frames)
+        clear_scene()
+        lap = laplacian_headless(n, args.frames, args.iterations)
+        clear_scene()
+        row = {"target_vertices": n, "ours": ours, "laplacian": lap}
+        rows.append(row)
+        print("%7d vertices: Auto %.1f ms/frame solving (%.0f fps), %.2f ms cached (%.0f fps) | Laplacian Deform "
+              "+ Hook %.1f ms/frame (%.0f fps) | path: scrub %.1e, bake %.1e of the height"
+              % (ours["vertices"], med(ours["solved_ms"]), 1e3 / med(ours["solved_ms"]), med(ours["cached_ms"]),
+                 1e3 / med(ours["cached_ms"]), med(lap["frame_ms"]), 1e3 / med(lap["frame_ms"]),
+                 ours["worst_scrub"], ours["worst_bake"]), flush=True)
+    write(args, "blender_playback", rows, "\n".join([
+        "| V | Auto, solving | Auto, cached | LapDeform + Hook | worst scrub / bake difference |",
+        "|---:|---:|---:|---:|---:|"] + [
+        "| %d | %.1f ms (%.0f fps) | %.2f ms (%.0f fps) | %.1f ms (%.0f fps) | %.1e / %.1e |" % (
+            r["ours"]["vertices"], med(r["ours"]["solved_ms"]), 1e3 / med(r["ours"]["solved_ms"]),
+            med(r["ours"]["cached_ms"]), 1e3 / med(r["ours"]["cached_ms"]), med(r["laplacian"]["frame_ms"]),
+            1e3 / med(r["laplacian"]["frame_ms"]), r["ours"]["worst_scrub"], r["ours"]["worst_bake"])
+        for r in rows]))
+
+
+def write(args, name, rows, table):
+    os.makedirs(args.output, exist_ok=True)
+    with open(os.path.join(args.output, name + ".json"), "w") as f:
+        json.dump({"blender": bpy.app.version_string, "frames": args.frames, "rows": rows}, f, indent=1)
+    with open(os.path.join(args.output, name + ".md"), "w") as f:
+        f.write("# Playback, Auto mode vs Laplacian Deform + Hook (Blender %s, %d frames)\n\n%s\n"
+                % (bpy.app.version_string, args.frames, table))
+    print("wrote", os.path.join(args.output, name + ".md"), flush=True)
+
+
+class ViewportRun:
+    """Plays each scene in the viewport (timers drive it: the UI must be running)."""
+
+    def __init__(self, args, api):
+        self.args, self.api = args, api
+        self.jobs = [(n, kind) for n in [int(x) for x in args.sizes.split(",") if x] for kind in ("auto", "lap")]
+        self.rows, self.times = [], []
+
+    def view3d(self):
+        win = bpy.context.window_manager.windows[0]
+        area = next(a for a in win.screen.areas if a.type == 'VIEW_3D')
+        return win, area, next(r for r in area.regions if r.type == 'WINDOW')
+
+    def frame_changed(self, scene, _depsgraph=None):
+        self.times.append(time.perf_counter())
+
+    def start(self):
+        if not self.jobs:
+            return self.finish()
+        n, kind = self.jobs[0]
+        clear_scene()
+        obj, fixed, top, h, empty, start = animated_tube("Tube", n, self.args.frames)
+        if kind == "auto":
+            add_group(obj, "fixed", fixed)
+            add_group(obj, "top", top)
+            self.api.set_fixed(obj, "fixed")
+            self.api.add_handle(obj, "top", empty)
+            self.api.set_auto(obj, True)
+        else:
+            laplacian_with_hook(obj, fixed, top, empty, start, self.args.iterations)
+        scene = bpy.context.scene
+        scene.render.fps = 60
+        scene.sync_mode = 'NONE'   # every frame is shown: the rate is what the evaluation allows
+        self.vertices = len(obj.data.vertices)
+        win, area, region = self.view3d()
+        area.spaces.active.region_3d.view_distance = 9.0
+        self.times = []
+        with bpy.context.temp_override(window=win, area=area, region=region):
+            bpy.ops.screen.animation_play()
+        bpy.app.timers.register(self.stop, first_interval=0.5)
+        return None
+
+    def stop(self):
+        enough = len(self.times) >= min(self.args.frames, 30)
+        too_long = len(self.times) >= 3 and time.perf_counter() - self.times[0] > 60
+        if not (enough or too_long):
+            return 0.2
+        win, area, region = self.view3d()
+        with bpy.context.temp_override(window=win, area=area, region=region):
+            bpy.ops.screen.animation_cancel(restore_frame=True)
+        n, kind = self.jobs.pop(0)
+        t = self.times[1:]   # the first change happens before the first frame is drawn
+        fps = (len(t) - 1) / (t[-1] - t[0])
+        self.rows.append({"target_vertices": n, "kind": kind, "vertices": self.vertices, "fps": fps,
+                          "frames": len(t)})
+        print("viewport %s %d vertices: %.1f fps over %d frames" % (kind, self.vertices, fps, len(t)), flush=True)
+        bpy.app.timers.register(self.start, first_interval=0.5)
+        return None
+
+    def finish(self):
+        by = {(r["target_vertices"], r["kind"]): r for r in self.rows}
+        sizes = sorted({r["target_vertices"] for r in self.rows})
+        write(self.args, "blender_playback_viewport", self.rows, "\n".join(
+            ["| V | Auto (viewport) | LapDeform + Hook (viewport) |", "|---:|---:|---:|"] +
+            ["| %d | %.1f fps | %.1f fps |" % (by[(n, "auto")]["vertices"], by[(n, "auto")]["fps"],
+                                               by[(n, "lap")]["fps"]) for n in sizes]))
+        bpy.app.handlers.frame_change_post.remove(self.frame_changed)
+        bpy.ops.wm.quit_blender()
+        return None
+
+
+def main():
+    args = parse_args()
+    api, auto, bake = load_addon(args.addon_dir)
+    if args.viewport:
+        run = ViewportRun(args, api)
+        bpy.app.handlers.frame_change_post.append(run.frame_changed)
+        bpy.app.timers.register(run.start, first_interval=2.0)
+        return
+    headless(args, api, auto, bake)
+    sys.stdout.flush()
+    os._exit(0)
+
+
+main()
