@@ -13,6 +13,11 @@
 # moved until the deformed mesh is up to date:
 #   ours:    LiveSession.step() (read empties, warm-started solve, write) + view_layer.update()
 #   Blender: view_layer.update(), which evaluates Hook + Laplacian Deform
+# Settling (--settle-sizes): the same tube with the add-on's default Live settings
+# (quasi-Newton, 16 ms frame budget): the empty is dragged over 10 updates, then
+# left alone; measured from its last move until step(force=False) returns None
+# (settled): updates, CPU ms (time.thread_time) and wall ms of those updates,
+# the distance to the converged pose, and the CPU of an idle update.
 # Not part of ctest (its name is not test_*.py). Writes blender_live.md / .json.
 import argparse
 import json
@@ -39,6 +44,7 @@ def parse_args():
     p.add_argument("--iterations", type=int, default=2, help="our Live iterations and Laplacian Deform's")
     p.add_argument("--lap-budget", type=float, default=60.0,
                    help="seconds of Laplacian Deform frames per size; it stops after that (3 frames at least)")
+    p.add_argument("--settle-sizes", default="10000,50000,250000")
     p.add_argument("--output", default="results")
     return p.parse_args(argv)
 
@@ -56,15 +62,21 @@ def load_addon(addon_dir):
     return api
 
 
-def bench_ours(api, vertices, frames, iterations):
-    obj, fixed, top, h = make_tube("ArapTube", vertices)
+def posed_tube(api, name, vertices):
+    """The tube with its ARAP set-up: bottom fifth fixed, top 5 % on an Empty at the top centre."""
+    obj, fixed, top, h = make_tube(name + "Tube", vertices)
     add_group(obj, "fixed", fixed)
     add_group(obj, "top", top)
     start = Vector((0.0, 0.0, h))
-    empty = add_empty("ArapHandle", start)
+    empty = add_empty(name + "Handle", start)
     bpy.context.view_layer.update()
     api.set_fixed(obj, "fixed")
     api.add_handle(obj, "top", empty)
+    return obj, empty, start, h
+
+
+def bench_ours(api, vertices, frames, iterations):
+    obj, empty, start, h = posed_tube(api, "Arap", vertices)
     t = time.perf_counter()
     session = api.start_session(obj, bpy.context.scene, iterations=iterations)
     bind_ms = (time.perf_counter() - t) * 1e3
@@ -79,6 +91,50 @@ def bench_ours(api, vertices, frames, iterations):
             solve.append(stats.solve_ms)
     session.finish()
     return {"vertices": len(obj.data.vertices), "bind_ms": bind_ms, "frame_ms": wall, "solve_ms": solve}
+
+
+def bench_settle(api, vertices, drag_updates=10, timer_interval_ms=1000.0 / 30.0):
+    obj, empty, start, h = posed_tube(api, "Settle", vertices)
+    session = api.start_session(obj, bpy.context.scene)  # the object's (default) Live settings
+    session.step()
+    while session.step(force=False) is not None:  # settle at rest first
+        pass
+    for k in range(drag_updates):  # a drag: the empty moves before every update
+        move(empty, start, 0.25 * h * (k + 1) / drag_updates)
+        session.step(force=False)
+        bpy.context.view_layer.update()
+    cpu0, wall0 = time.thread_time(), time.perf_counter()
+    updates, update_wall = 0, []
+    while True:
+        t = time.perf_counter()
+        stats = session.step(force=False)
+        if stats is None:
+            break
+        bpy.context.view_layer.update()
+        update_wall.append((time.perf_counter() - t) * 1e3)
+        updates += 1
+    settle_cpu = (time.thread_time() - cpu0) * 1e3
+    settle_wall = (time.perf_counter() - wall0) * 1e3
+    # In the viewport one update runs per timer tick: the wall time a user sees.
+    viewport_ms = sum(max(w, timer_interval_ms) for w in update_wall)
+    cpu0 = time.thread_time()
+    idle_updates = 300
+    for _ in range(idle_updates):
+        assert session.step(force=False) is None
+    idle_cpu_ms = (time.thread_time() - cpu0) * 1e3 / idle_updates
+    # The settled pose against the converged one from the same start (the dragged path can
+    # end in another local minimum than a cold solve: ARAP is not convex).
+    live = session.positions().reshape(-1, 3).astype(np.float64).copy()
+    solver = session.solver
+    solver.time_budget_ms, solver.tolerance, solver.max_iterations = 0.0, 1e-10, 5000
+    solver.solve(session.problem.targets)
+    gap = float(np.abs(solver.positions() - live).max())
+    session.cancel()
+    return {"vertices": len(obj.data.vertices), "updates": updates, "cpu_ms": settle_cpu, "wall_ms": settle_wall,
+            "viewport_ms_at_30hz": viewport_ms, "idle_update_cpu_ms": idle_cpu_ms,
+            "idle_cpu_percent_at_30hz": 100.0 * idle_cpu_ms / timer_interval_ms,
+            "max_distance_to_converged": gap, "height": h,
+            "frame_budget_ms": obj.arap.live_frame_ms, "method": obj.arap.method}
 
 
 def bench_laplacian(vertices, frames, iterations, budget_s):
@@ -132,8 +188,19 @@ def main():
                                              row["ours_solve"]["median"], lap["bind_ms"],
                                              row["laplacian_frame"]["median"], row["ratio"]), flush=True)
 
+    settle = []
+    for n in [int(x) for x in args.settle_sizes.split(",") if x]:
+        clear_scene()
+        r = bench_settle(api, n)
+        settle.append(r)
+        print("%7d vertices: settled %d updates after the last move, %.0f ms CPU (%.0f ms wall; %.0f ms in a 30 Hz "
+              "viewport), idle update %.4f ms CPU (%.3f %% of a core at 30 Hz), %.1e from the converged pose"
+              % (r["vertices"], r["updates"], r["cpu_ms"], r["wall_ms"], r["viewport_ms_at_30hz"],
+                 r["idle_update_cpu_ms"], r["idle_cpu_percent_at_30hz"], r["max_distance_to_converged"]), flush=True)
+
     os.makedirs(args.output, exist_ok=True)
-    doc = {"blender": bpy.app.version_string, "frames": args.frames, "iterations": args.iterations, "rows": rows}
+    doc = {"blender": bpy.app.version_string, "frames": args.frames, "iterations": args.iterations, "rows": rows,
+           "settle": settle}
     with open(os.path.join(args.output, "blender_live.json"), "w") as f:
         json.dump(doc, f, indent=1)
     with open(os.path.join(args.output, "blender_live.md"), "w") as f:
@@ -150,6 +217,21 @@ def main():
                 r["ours"]["vertices"], r["ours"]["bind_ms"], o["median"], o["p25"], o["p75"], s["median"],
                 r["laplacian"]["bind_ms"], l["median"], l["p25"], l["p75"], len(r["laplacian"]["frame_ms"]),
                 r["ratio"]))
+        if settle:
+            f.write("\n## Time to a settled pose\n\nThe add-on's default Live settings (method %s, frame budget "
+                    "%.0f ms); the empty dragged 0.25 h sideways over 10 updates, then left alone. From its last "
+                    "move until Live sleeps (step() returns None): updates, CPU ms and wall ms of the solving, "
+                    "and the wall time in a viewport whose timer ticks at 30 Hz; then the CPU one idle update "
+                    "costs, and the largest distance of the settled pose from the converged pose (the same "
+                    "solver continued to tolerance 1e-10), relative to the tube's height.\n\n"
+                    % (settle[0]["method"], settle[0]["frame_budget_ms"]))
+            f.write("| V | updates | CPU ms | wall ms | at 30 Hz | idle update (CPU ms) | idle CPU at 30 Hz "
+                    "| distance / h |\n|---:|---:|---:|---:|---:|---:|---:|---:|\n")
+            for r in settle:
+                f.write("| %d | %d | %.0f | %.0f | %.0f | %.4f | %.3f %% | %.1e |\n" % (
+                    r["vertices"], r["updates"], r["cpu_ms"], r["wall_ms"], r["viewport_ms_at_30hz"],
+                    r["idle_update_cpu_ms"], r["idle_cpu_percent_at_30hz"],
+                    r["max_distance_to_converged"] / r["height"]))
     print("wrote %s" % os.path.join(args.output, "blender_live.md"))
     sys.stdout.flush()
     os._exit(0)

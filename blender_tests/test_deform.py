@@ -29,7 +29,8 @@ class Deform(unittest.TestCase):
         targets = np.concatenate([rest[fixed], U.apply(a, rest[handle])])
         s = engine.native().Solver()
         s.bind(rest, U.triangles(obj), constrained, weights="cotan-clamped", init=init,
-               max_iterations=iterations, tolerance=tolerance, anderson_window=obj.arap.acceleration)
+               max_iterations=iterations, tolerance=tolerance, anderson_window=obj.arap.acceleration,
+               method=engine.METHOD_NAMES[obj.arap.method])
         s.solve(targets)
         return s, rest, constrained, targets
 

@@ -80,6 +80,47 @@ class Live(unittest.TestCase):
         self.assertIsNotNone(s.step(force=False))
         s.cancel()
 
+    def test_settles_then_sleeps_until_something_moves(self):
+        s = api.start_session(self.obj, bpy.context.scene)
+        move(self.empty, dx=0.5, dz=-0.3)
+        steps = 0
+        while s.step(force=False) is not None:  # what the modal timer does
+            steps += 1
+            self.assertLess(steps, 200, "Live never settled")
+        self.assertTrue(s.settled)
+        settled = U.raw_coords(self.obj).copy()
+        # Asleep: nothing is solved or written, the shape does not creep.
+        for _ in range(5):
+            self.assertIsNone(s.step(force=False))
+        self.assertTrue(np.array_equal(U.raw_coords(self.obj), settled))
+        # The settled pose is the converged one-shot solve of the same pose.
+        live = U.coords(self.obj).copy()
+        s.cancel()
+        api.deform(self.obj, tolerance=1e-9)
+        np.testing.assert_allclose(live, U.coords(self.obj), atol=2e-3)
+        # A move wakes it up again.
+        s = api.start_session(self.obj, bpy.context.scene)
+        while s.step(force=False) is not None:
+            pass
+        move(self.empty, dx=0.1)
+        self.assertIsNotNone(s.step(force=False))
+        s.cancel()
+
+    def test_uses_the_objects_method_and_frame_budget(self):
+        self.obj.arap.method = 'LOCAL_GLOBAL'
+        self.obj.arap.live_frame_ms = 5.0
+        s = api.start_session(self.obj, bpy.context.scene)
+        self.assertEqual(s.solver.method, "local-global")
+        s.step()
+        self.assertEqual(s.solver.time_budget_ms, 5.0)  # the first update is a move
+        if not s.settled:
+            s.step()  # nothing moved: a settling update
+            self.assertEqual(s.solver.time_budget_ms, 5.0 * engine.SETTLE_BUDGET_FACTOR)
+        move(self.empty, dx=0.2)
+        s.step()
+        self.assertEqual(s.solver.time_budget_ms, 5.0)
+        s.cancel()
+
     def test_deleted_empty_stops(self):
         before = U.raw_coords(self.obj).copy()
         s = api.start_session(self.obj, bpy.context.scene)

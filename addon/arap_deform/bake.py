@@ -151,6 +151,8 @@ class Baker:
         self.solver.max_iterations = iterations or DEFAULT_ITERATIONS
         self.solver.tolerance = DEFAULT_TOLERANCE if tolerance is None else tolerance
         self.solver.anderson_window = DEFAULT_ANDERSON if anderson is None else anderson
+        # The bake keeps the method its figures were measured with (README, "Animation bake").
+        self.solver.method = "anderson" if self.solver.anderson_window > 0 else "local-global"
         self.solver.cold_start = engine.INIT_NAMES[s.init]
         self.solver.init = "warm"
         self.rest_constrained = self.rest64[self.setup.constrained]

@@ -17,6 +17,7 @@ from .constraints import SetupError
 
 WEIGHT_NAMES = {'COTAN': "cotan", 'COTAN_CLAMPED': "cotan-clamped", 'UNIFORM': "uniform"}
 INIT_NAMES = {'LAPLACIAN': "laplacian", 'DIFFERENTIAL': "differential", 'NAIVE': "naive"}
+METHOD_NAMES = {'QUASI_NEWTON': "quasi-newton", 'LOCAL_GLOBAL': "local-global", 'ANDERSON': "anderson"}
 
 _native = None
 
@@ -198,6 +199,7 @@ def configured_solver(problem, settings, warm=False):
                 stiffness=problem.stiffness)
     solver.max_iterations = settings.iterations
     solver.tolerance = settings.tolerance
+    solver.method = METHOD_NAMES[settings.method]
     solver.anderson_window = settings.acceleration
     solver.threads = settings.threads
     if warm:
@@ -237,7 +239,9 @@ def deform(obj, scene=None, iterations=None, tolerance=None, init=None):
     solver.max_iterations = iterations if iterations else s.iterations
     solver.tolerance = s.tolerance if tolerance is None else tolerance
     solver.init = INIT_NAMES[init or s.init]
+    solver.method = METHOD_NAMES[s.method]
     solver.anderson_window = s.acceleration
+    solver.time_budget_ms = 0.0
     solver.threads = s.threads
     result32 = np.empty(len(problem.rest32), np.float32)
     t1 = time.perf_counter()
@@ -347,11 +351,20 @@ _sessions = set()
 
 # How often a Live session compares the faces in full (see meshio.Topology).
 TOPOLOGY_CHECK_S = 1.0
+# How many frame budgets a Live update may spend while the handles stand still and the pose settles
+# (3 x 16 ms: the viewport still redraws at about 20 frames a second).
+SETTLE_BUDGET_FACTOR = 3.0
 
 
 class LiveSession:
     """Bind once, then step(): read empties, solve warm-started, write.
 
+    Each step spends at most the frame budget (live_frame_ms) on iterations, so
+    the viewport stays interactive while a handle moves. When nothing moved,
+    step() goes on from where the last one stopped (the quasi-Newton history is
+    kept; up to SETTLE_BUDGET_FACTOR frame budgets a step) until the pose has
+    settled (the tolerance); then, until something moves again,
+    step(force=False) does nothing and returns None: Live sleeps.
     The modal operator is a thin shell around this; scripts and tests drive
     it directly. cancel() restores the snapshot taken at start bit for bit.
     """
@@ -378,7 +391,10 @@ class LiveSession:
         self.solver.tolerance = s.tolerance
         self.solver.cold_start = INIT_NAMES[s.init]
         self.solver.init = "warm"
+        self.solver.method = METHOD_NAMES[s.method]
         self.solver.anderson_window = s.acceleration
+        self.frame_ms = s.live_frame_ms
+        self.solver.time_budget_ms = self.frame_ms
         self.solver.threads = s.threads
         self.buffer = np.empty(len(self.problem.rest32), np.float32)
         self.write_enabled = write
@@ -420,9 +436,14 @@ class LiveSession:
         if mode != 'OBJECT':
             raise SessionError("'%s' left Object Mode: Live stopped" % obj.name, 'MODE')
 
+    @property
+    def settled(self):
+        """The last update's solve converged: until something moves, step(force=False) does nothing."""
+        return self.converged
+
     def step(self, force=True):
         """One update; with force=False returns None when the empties and the
-        object did not move and the last solve had converged."""
+        object did not move and the last solve had converged (settled)."""
         self.check()
         t0 = time.perf_counter()
         sync_matrices()  # scripts move empties without a depsgraph update; cheap when nothing changed
@@ -432,9 +453,13 @@ class LiveSession:
             raise SessionError(str(exc), 'EMPTY') from None
         obj_matrix = constraints.matrix_to_numpy(self.obj.matrix_world)
         pose = np.concatenate([obj_matrix.ravel()] + [m.ravel() for m in mats])
-        if not force and self.converged and self._pose is not None and np.array_equal(pose, self._pose):
+        still = self._pose is not None and np.array_equal(pose, self._pose)
+        if not force and self.converged and still:
             return None
         self._pose = pose
+        # While a handle moves, keep to the frame budget; once it stops, nobody waits for a
+        # new frame of the handle, so the settling updates may take a few times longer.
+        self.solver.time_budget_ms = self.frame_ms * (SETTLE_BUDGET_FACTOR if still else 1.0)
         transforms = constraints.handle_transforms(self.problem.setup, obj_matrix, mats, self.obj.name)
         targets = constraints.fill_targets(self.problem.setup, self.problem.rest_constrained, transforms,
                                            self.problem.targets)

@@ -305,8 +305,10 @@ class ARAP_OT_live(bpy.types.Operator):
         last = self._session.last
         if context.area is not None and last is not None:
             context.area.header_text_set(
-                "ARAP Live: %.1f ms/frame (solve %.1f ms), energy %.6g | Enter: apply, Esc/right-click: cancel"
-                % (last.total_ms, last.solve_ms, last.energy))
+                "ARAP Live (%s): %.1f ms/frame (solve %.1f ms, %d iterations), energy %.6g | Enter: apply, "
+                "Esc/right-click: cancel"
+                % ("settled" if self._session.settled else "settling", last.total_ms, last.solve_ms,
+                   last.iterations, last.energy))
 
     def _cleanup(self, context):
         if self._timer is not None:

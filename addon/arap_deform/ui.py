@@ -105,7 +105,7 @@ class SubPanel:
 
 
 class ARAP_PT_solver(SubPanel, bpy.types.Panel):
-    """How the solver works: rounds, tolerance, weights, acceleration, threads"""
+    """How the solver works: method, rounds, frame budget, tolerance, weights, acceleration, threads"""
     bl_label = "Solver"
 
     def draw(self, context):
@@ -113,8 +113,11 @@ class ARAP_PT_solver(SubPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         layout.use_property_decorate = False
-        for name in ("iterations", "live_iterations", "tolerance", "weights", "init", "acceleration", "threads"):
+        for name in ("method", "iterations", "live_iterations", "live_frame_ms", "tolerance", "weights", "init"):
             layout.prop(s, name)
+        if s.method == 'ANDERSON':
+            layout.prop(s, "acceleration")
+        layout.prop(s, "threads")
 
 
 class ARAP_MT_menu(bpy.types.Menu):

@@ -21,6 +21,7 @@
 
 #include "arap/solver.h"
 #include "arap/version.h"
+#include "band.h"
 #include "bench_cases.h"
 #ifdef ARAP_BENCH_HAVE_CGAL
 #include "cgal_arap.h"
@@ -43,6 +44,9 @@ struct Args {
   int cgal_max_vertices = 300000, cgal_iterations = 20;
   double repeat_seconds = 3;
   std::string output_dir = "results";
+  std::vector<int> sizes;  // explicit procedural sizes instead of doubling
+  bool time_to_band = false;
+  int band_iterations = 2000;
 };
 
 const char* kUsage = R"(usage: arap-bench [options] [mesh.off|.obj|.ply|scenario.json ...]
@@ -61,6 +65,12 @@ const char* kUsage = R"(usage: arap-bench [options] [mesh.off|.obj|.ply|scenario
   --repeat-seconds S     repeat each measurement (up to 5 times) while its runs took less than S
                          seconds in all, and keep the run with the lowest median iteration (default 3)
   --output-dir DIR       where results.md and results.json go (default ./results)
+  --sizes LIST           procedural sizes, e.g. 100000,250000 (instead of doubling from --min-vertices)
+  --time-to-band         instead of the per-iteration tables: CPU time of each method (local-global,
+                         anderson-5, quasi-newton, CGAL) from a cold start into the band
+                         E <= E* + 1e-3 |E*|, E* the lowest energy any reaches in --band-iterations;
+                         writes band.md and band.json
+  --band-iterations N    the budget that finds E* (default 2000)
 )";
 
 std::vector<std::string> split(const std::string& s) {
@@ -111,6 +121,12 @@ Args parse_args(int argc, char** argv) {
       a.repeat_seconds = std::stod(value());
     } else if (flag == "--output-dir") {
       a.output_dir = value();
+    } else if (flag == "--sizes") {
+      for (const auto& v : split(value())) a.sizes.push_back(std::stoi(v));
+    } else if (flag == "--time-to-band") {
+      a.time_to_band = true;
+    } else if (flag == "--band-iterations") {
+      a.band_iterations = std::max(1, std::stoi(value()));
     } else if (!flag.empty() && flag[0] == '-') {
       throw std::runtime_error("unknown option " + flag + "\n" + kUsage);
     } else {
@@ -211,6 +227,8 @@ constexpr int kTimingIterations = 30;
 json run_ours(const bench::Case& c, arap::Weights weights, int threads, int anderson, bool timing_only,
               const Args& args) {
   arap::Options options;
+  // Iterations of the same algorithm as CGAL's: the textbook alternation (or Anderson's on it).
+  options.method = anderson > 0 ? arap::Method::Anderson : arap::Method::LocalGlobal;
   options.weights = weights;
   options.init = args.init;
   options.tolerance = 0;
@@ -361,7 +379,7 @@ void write_results(const json& doc, const std::filesystem::path& dir) {
      << ", " << doc["machine"]["compiler"].get<std::string>() << ", " << doc["date"].get<std::string>() << ".\n\n"
      << "- Scenario of procedural meshes and plain mesh files: bottom fifth (by the longest bounding-box axis) "
         "fixed, top 5 % moved sideways by 0.3 h. Scenario files: their own constraints.\n"
-     << "- Ours: first guess `" << set["init"].get<std::string>() << "`, " << set["iterations"].get<int>()
+     << "- Ours: plain local/global iterations (as CGAL's), first guess `" << set["init"].get<std::string>() << "`, " << set["iterations"].get<int>()
      << " iterations per solve after a warm-up solve (first guess only); the energy after the last iteration is the "
         "reference E_ref. Thread counts after the first time the first weights over 30 iterations.\n"
      << "- Each measurement (ours and CGAL) is repeated up to 5 times while its runs took less than "
@@ -444,6 +462,23 @@ void write_results(const json& doc, const std::filesystem::path& dir) {
   }
 }
 
+void write_band_results(const json& doc, const std::filesystem::path& dir) {
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "band.json") << doc.dump(1) << "\n";
+  std::ofstream md(dir / "band.md");
+  md << "# Time to the band\n\n"
+     << "arap " << doc["arap_version"].get<std::string>() << ", " << doc["machine"]["cpu"].get<std::string>() << ", "
+     << doc["date"].get<std::string>() << ".\n\n"
+     << "Cold start (naive guess, cotan-clamped weights, one thread). E* = the lowest energy any method reaches in "
+     << doc["settings"]["band_iterations"].get<int>()
+     << " iterations (each stops early only once its energy no longer moves, relative change <= 1e-14); the band "
+        "is E <= E* + 1e-3 |E*|. Cells: iterations to the band / median CPU ms (CLOCK_THREAD_CPUTIME_ID) of 3 cold "
+        "solves that run exactly that many iterations (bind excluded); \"> t\": not in the band within the budget, "
+        "t = the budget's CPU time (the reference run). CGAL: the sum of its deform(1, 0) calls' CPU time (one run). Defaults: "
+        "quasi-newton with the library's default tolerance (1e-6) and cap.\n\n"
+     << bench::band_table(doc["meshes"]);
+}
+
 std::string now_utc() {
   const std::time_t t = std::time(nullptr);
   char buf[32];
@@ -460,7 +495,9 @@ int main(int argc, char** argv) {
     // What to measure: procedural sizes first, then the files, in the order given.
     std::vector<std::pair<std::string, int>> procedural;
     for (const auto& shape : args.shapes)
-      for (long target = args.min_vertices;; target *= 2) {
+      for (int size : args.sizes) procedural.emplace_back(shape, size);
+    for (const auto& shape : args.shapes)
+      for (long target = args.min_vertices; args.sizes.empty(); target *= 2) {
         procedural.emplace_back(shape, static_cast<int>(std::min<long>(target, args.max_vertices)));
         if (target >= args.max_vertices) break;
       }
@@ -476,7 +513,8 @@ int main(int argc, char** argv) {
                   {"threads", args.threads},
                   {"cgal_max_vertices", args.cgal_max_vertices},
                   {"cgal_iterations", args.cgal_iterations},
-                  {"repeat_seconds", args.repeat_seconds}}},
+                  {"repeat_seconds", args.repeat_seconds},
+                  {"band_iterations", args.band_iterations}}},
                 {"peak_reset_works", peak_reset_works()},
 #ifdef ARAP_BENCH_HAVE_CGAL
                 {"cgal_available", true},
@@ -491,6 +529,15 @@ int main(int argc, char** argv) {
                                                 : bench::file_case(args.files[index - procedural.size()]);
       std::cerr << "[" << index + 1 << "/" << total << "] " << c.name << ": " << c.rest.rows() << " vertices, "
                 << c.constrained.size() << " constrained" << std::endl;
+      if (args.time_to_band) {
+        bench::BandSettings band;
+        band.reference_iterations = args.band_iterations;
+        band.cgal = args.cgal;
+        band.cgal_max_vertices = args.cgal_max_vertices;
+        doc["meshes"].push_back(bench::time_to_band(c, band));
+        write_band_results(doc, args.output_dir);
+        continue;
+      }
       json m = {{"name", c.name},
                 {"source", c.source},
                 {"vertices", c.rest.rows()},
@@ -514,7 +561,8 @@ int main(int argc, char** argv) {
             std::cerr << "  ours " << r["weights"].get<std::string>() << (anderson ? " +AA" : "") << " x" << threads
                       << ": bind " << fmt(r["bind_ms"]) << " ms, iteration " << fmt(r["iteration_ms"]["median"])
                       << " ms, E_ref " << fmt(r["reference_energy"], "%.6g") << std::endl;
-            if (w == arap::Weights::CotanClamped && !anderson) reference_clamped = r["reference_energy"].get<double>();
+            if (w == arap::Weights::CotanClamped && !anderson && main_count)
+              reference_clamped = r["reference_energy"].get<double>();
             m["runs"].push_back(std::move(r));
           }
         }
@@ -532,8 +580,9 @@ int main(int argc, char** argv) {
       doc["meshes"].push_back(std::move(m));
       write_results(doc, args.output_dir);
     }
-    std::cerr << "wrote " << (std::filesystem::path(args.output_dir) / "results.md").string() << " and results.json"
-              << std::endl;
+    const char* stem = args.time_to_band ? "band" : "results";
+    std::cerr << "wrote " << (std::filesystem::path(args.output_dir) / stem).string() << ".md and " << stem
+              << ".json" << std::endl;
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "arap-bench: " << e.what() << std::endl;

@@ -6,6 +6,8 @@
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/Surface_mesh_deformation.h>
 
+#include "cpu_clock.h"
+
 namespace bench {
 namespace {
 
@@ -55,7 +57,9 @@ CgalResult run_cgal_arap(const arap::Points& rest, const arap::Triangles& triang
   arap::Points positions(rest.rows(), 3);
   for (int k = 0; k < iterations; ++k) {
     t = Clock::now();
+    const double cpu = thread_cpu_ms();
     deformation.deform(1, 0.0);
+    result.iteration_cpu_ms.push_back(thread_cpu_ms() - cpu);
     result.iteration_ms.push_back(ms_since(t));
     if (after_iteration) {
       for (Eigen::Index i = 0; i < rest.rows(); ++i) {

@@ -17,6 +17,7 @@ struct CgalResult {
   double build_ms = 0;       // Surface_mesh construction from the arrays
   double preprocess_ms = 0;  // ROI and control vertices, weights, factorization
   std::vector<double> iteration_ms;  // each deform(1, 0) call
+  std::vector<double> iteration_cpu_ms;  // the same in CPU time of the calling thread
 };
 
 // The whole mesh is the region of interest and every constrained vertex a

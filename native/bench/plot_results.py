@@ -8,6 +8,8 @@
   energy_<mesh>.png       energy against global solves and against ms, ours (cotan-clamped,
                           plain and Anderson if run) and CGAL, for every mesh file and the
                           largest procedural meshes CGAL ran on
+  time_to_band.png        from band.json beside it (arap-bench --time-to-band): CPU ms from a
+                          cold start into the 1e-3 band per mesh and method (log scale)
 
 usage: python3 plot_results.py results/results.json
 """
@@ -136,10 +138,46 @@ def plot_energy(mesh, out):
     return True
 
 
+def plot_band(band, out):
+    meshes = [m for m in band["meshes"] if m["vertices"] >= 5000] or band["meshes"]
+    series = [("local-global", "tab:gray"), ("anderson-5", "tab:orange"), ("quasi-newton", "tab:blue"),
+              ("CGAL", "tab:green")]
+    fig, ax = plt.subplots(figsize=(8, 0.9 + 0.8 * len(meshes)))
+    height = 0.8 / len(series)
+    for k, (name, color) in enumerate(series):
+        ms, hatch = [], []
+        for m in meshes:
+            run = m.get("cgal") if name == "CGAL" else next(r for r in m["runs"] if r["method"] == name)
+            value = None
+            if run:
+                value = run.get("cpu_ms_to_band") or run.get("cpu_ms_budget")
+            ms.append(value or 0.0)
+            hatch.append(bool(run) and not run.get("cpu_ms_to_band"))
+        ys = [i + (k - 1.5) * height for i in range(len(meshes))]
+        bars = ax.barh(ys, ms, height=height, color=color, label=name)
+        for bar, h in zip(bars, hatch):
+            if h:  # not in the band within the budget: the budget's time, a lower bound
+                bar.set_hatch("//")
+    ax.set_yticks(range(len(meshes)))
+    ax.set_yticklabels([f"{m['name']} ({m['vertices']:,})" for m in meshes])
+    ax.set_xscale("log")
+    ax.set_xlabel("CPU ms from a cold start into E <= E* + 1e-3 |E*| (hatched: not there within the budget)")
+    ax.legend(loc="lower right")
+    ax.grid(True, axis="x", which="both", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out / "time_to_band.png", dpi=120)
+    plt.close(fig)
+
+
 def main():
     path = Path(sys.argv[1] if len(sys.argv) > 1 else "results/results.json")
-    doc = json.loads(path.read_text())
     out = path.parent
+    if (out / "band.json").exists():
+        plot_band(json.loads((out / "band.json").read_text()), out)
+    if not path.exists():
+        print(f"plots written to {out}")
+        return
+    doc = json.loads(path.read_text())
     plot_time(doc, out)
     plot_split(doc, out)
     # energy plots: every mesh file, and the largest procedural mesh of each shape CGAL ran on

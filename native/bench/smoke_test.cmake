@@ -38,3 +38,15 @@ string(JSON meshes LENGTH "${doc}" meshes)
 if(NOT meshes EQUAL 6)
   message(FATAL_ERROR "results.json lists ${meshes} meshes, expected 6")
 endif()
+
+# The time-to-band mode: every method on the box scenario, a short budget.
+execute_process(
+  COMMAND ${BENCH} --time-to-band --band-iterations 40 --shapes none --output-dir ${WORK}/band ${WORK}/box.json
+  RESULT_VARIABLE status)
+if(NOT status EQUAL 0)
+  message(FATAL_ERROR "arap-bench --time-to-band exited with ${status}")
+endif()
+file(READ ${WORK}/band/band.md table)
+if(NOT table MATCHES "\\| box-scenario \\| 12 \\| [0-9]+ / ")
+  message(FATAL_ERROR "band.md has no row for box-scenario:\n${table}")
+endif()

@@ -135,16 +135,21 @@ int run(const cli::DeformArgs& args) {
   }
 
   for (const std::string& w : constraints.warnings) std::cerr << "arap-deform: " << w << '\n';
+  if (!stats.converged && args.options.tolerance > 0)
+    std::cerr << "arap-deform: stopped at the cap of " << stats.iterations
+              << " iterations before the energy settled (tolerance " << args.options.tolerance
+              << "); raise --iterations to go on\n";
   if (!args.quiet) {
     std::printf("%s: %d vertices, %d faces (%d triangles), %d fixed, %d handle vertices\n", mesh_path.c_str(),
                 info.vertices, info.faces, info.triangles, info.fixed, info.handle_vertices);
-    std::printf("weights %s, init %s, bind %.2f ms\n", to_string(solver.options().weights).c_str(),
-                to_string(solver.options().init).c_str(), precompute_ms);
+    std::printf("method %s, weights %s, init %s, bind %.2f ms\n", to_string(solver.options().method).c_str(),
+                to_string(solver.options().weights).c_str(), to_string(solver.options().init).c_str(),
+                precompute_ms);
     std::printf("iter %4d  energy %.9g  (first guess, %.2f ms)\n", 0, stats.initial_energy, stats.init_ms);
     for (int k = 0; k < stats.iterations; ++k)
       std::printf("iter %4d  energy %.9g  (%.2f ms)\n", k + 1, stats.energy[k], stats.iteration_ms[k]);
-    std::printf("%s after %d iterations; wrote %s\n", stats.converged ? "converged" : "stopped", stats.iterations,
-                args.output.c_str());
+    std::printf("%s after %d iterations; wrote %s\n",
+                stats.converged ? "converged" : "stopped at the iteration cap", stats.iterations, args.output.c_str());
   }
   return 0;
 }

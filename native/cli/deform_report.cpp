@@ -15,6 +15,7 @@ nlohmann::json make_report(const RunInfo& run, const Solver& solver, const Solve
   r["triangles"] = run.triangles;
   r["fixed_vertices"] = run.fixed;
   r["handle_vertices"] = run.handle_vertices;
+  r["method"] = to_string(o.method);
   r["weights"] = to_string(o.weights);
   r["init"] = to_string(o.init);
   r["max_iterations"] = o.max_iterations;
@@ -36,6 +37,9 @@ nlohmann::json make_report(const RunInfo& run, const Solver& solver, const Solve
   r["total_ms"] = run.total_ms;
   r["rotation_fallbacks"] = stats.rotation_fallbacks;
   r["anderson_rejections"] = stats.anderson_rejections;
+  r["direction_ms"] = stats.direction_ms;
+  r["line_search_steps"] = stats.line_search_steps;
+  r["quasi_newton_resets"] = stats.quasi_newton_resets;
   r["factor_nonzeros"] = solver.factor_nonzeros();
   r["bind_mesh_ms"] = solver.bind_stats().mesh_ms;
   r["bind_ordering_ms"] = solver.bind_stats().ordering_ms;

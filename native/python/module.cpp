@@ -190,6 +190,9 @@ PYBIND11_MODULE(_arap_native, m) {
       .def_readonly("converged", &arap::SolveStats::converged)
       .def_readonly("rotation_fallbacks", &arap::SolveStats::rotation_fallbacks)
       .def_readonly("anderson_rejections", &arap::SolveStats::anderson_rejections)
+      .def_readonly("direction_ms", &arap::SolveStats::direction_ms)
+      .def_readonly("line_search_steps", &arap::SolveStats::line_search_steps)
+      .def_readonly("quasi_newton_resets", &arap::SolveStats::quasi_newton_resets)
       .def("__repr__", [](const arap::SolveStats& s) {
         return "<SolveStats iterations=" + std::to_string(s.iterations) +
                " energy=" + (s.energy.empty() ? std::to_string(s.initial_energy) : std::to_string(s.energy.back())) +
@@ -202,7 +205,7 @@ PYBIND11_MODULE(_arap_native, m) {
           "bind",
           [](arap::Solver& s, const py::array& rest, const py::array& triangles, const py::array& constrained,
              const std::string& weights, const std::string& init, int max_iterations, double tolerance, int threads,
-             int anderson_window, py::object stiffness) {
+             int anderson_window, py::object stiffness, const std::string& method) {
             PointsView r = view_points(rest, "rest");
             arap::Triangles tri = to_triangles(triangles);
             std::vector<int> con = to_indices(constrained);
@@ -213,6 +216,7 @@ PYBIND11_MODULE(_arap_native, m) {
               stiff.assign(a.data(), a.data() + a.size());
             }
             arap::Options o;
+            o.method = arap::parse_method(method);
             o.weights = arap::parse_weights(weights);
             o.init = arap::parse_initial_guess(init);
             o.max_iterations = max_iterations;
@@ -223,8 +227,10 @@ PYBIND11_MODULE(_arap_native, m) {
             s.bind(r.map(), tri, con, o, stiff);
           },
           py::arg("rest"), py::arg("triangles"), py::arg("constrained"), py::arg("weights") = "cotan-clamped",
-          py::arg("init") = "naive", py::arg("max_iterations") = 10, py::arg("tolerance") = 1e-6,
-          py::arg("threads") = 1, py::arg("anderson_window") = 0, py::arg("stiffness") = py::none(),
+          py::arg("init") = "naive", py::arg("max_iterations") = arap::Options().max_iterations,
+          py::arg("tolerance") = arap::Options().tolerance, py::arg("threads") = 1,
+          py::arg("anderson_window") = arap::Options().anderson_window, py::arg("stiffness") = py::none(),
+          py::arg("method") = "quasi-newton",
           "rest: #V by 3 positions; triangles: #F by 3 indices; constrained: vertex indices (no duplicates);\n"
           "stiffness: optional, one value > 0 per vertex scaling its cell's energy (default all 1).")
       .def(
@@ -313,6 +319,14 @@ PYBIND11_MODULE(_arap_native, m) {
       .def_property(
           "anderson_window", [](const arap::Solver& s) { return s.options().anderson_window; },
           [](arap::Solver& s, int v) { s.options().anderson_window = v; })
+      .def_property(
+          "method", [](const arap::Solver& s) { return arap::to_string(s.options().method); },
+          [](arap::Solver& s, const std::string& v) { s.options().method = arap::parse_method(v); },
+          "quasi-newton | local-global | anderson")
+      .def_property(
+          "time_budget_ms", [](const arap::Solver& s) { return s.options().time_budget_ms; },
+          [](arap::Solver& s, double v) { s.options().time_budget_ms = v; },
+          "stop after the iteration that passes this many ms (0: no limit)")
       .def_property(
           "init", [](const arap::Solver& s) { return arap::to_string(s.options().init); },
           [](arap::Solver& s, const std::string& v) { s.options().init = arap::parse_initial_guess(v); },

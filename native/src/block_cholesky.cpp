@@ -1,21 +1,92 @@
 #include "block_cholesky.h"
 
+#include <algorithm>
 #include <chrono>
+#include <thread>
 
 #include <Eigen/OrderingMethods>
 
 namespace arap {
 
+namespace {
+
+// Below this many rows the solve is too short for a second thread: no split.
+constexpr Eigen::Index kSplitRows = 20000;
+
+using Permutation = Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int>;
+
+// AMD order of the rows `rows` of A (both triangles), as indices into A.
+std::vector<int> amd_order(const Eigen::SparseMatrix<double>& A, const std::vector<int>& rows,
+                           std::vector<int>& local) {
+  const int m = static_cast<int>(rows.size());
+  if (m == 0) return {};
+  Eigen::AMDOrdering<int> amd;
+  Permutation Pinv;
+  if (m == A.rows()) {  // the whole matrix (rows in order): no copy
+    amd(A, Pinv);  // as in Eigen's own Cholesky: Pinv.indices()[new] = old
+    return std::vector<int>(Pinv.indices().data(), Pinv.indices().data() + m);
+  }
+  for (int k = 0; k < m; ++k) local[rows[k]] = k;
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int k = 0; k < m; ++k)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(A, rows[k]); it; ++it)
+      if (local[it.row()] >= 0) entries.emplace_back(local[it.row()], k, it.value());
+  Eigen::SparseMatrix<double> sub(m, m);
+  sub.setFromTriplets(entries.begin(), entries.end());
+  amd(sub, Pinv);
+  std::vector<int> out(m);
+  for (int k = 0; k < m; ++k) out[k] = rows[Pinv.indices()[k]];
+  for (int k = 0; k < m; ++k) local[rows[k]] = -1;
+  return out;
+}
+
+// Rows of A split into two halves and a separator: breadth-first levels from
+// row 0 (and from the first unreached row of every further component); the
+// level at which half of the rows are reached is the separator, since edges
+// only join rows of the same or adjacent levels.
+void split(const Eigen::SparseMatrix<double>& A, std::vector<int> part[3]) {
+  const int n = static_cast<int>(A.rows());
+  std::vector<int> level(n, -1), queue;
+  queue.reserve(n);
+  for (int start = 0; start < n; ++start) {
+    if (level[start] >= 0) continue;
+    level[start] = 0;
+    queue.push_back(start);
+    for (size_t k = queue.size() - 1; k < queue.size(); ++k)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(A, queue[k]); it; ++it)
+        if (level[it.row()] < 0) level[it.row()] = level[queue[k]] + 1, queue.push_back(static_cast<int>(it.row()));
+  }
+  const int levels = *std::max_element(level.begin(), level.end()) + 1;
+  std::vector<int> count(levels, 0);
+  for (int l : level) ++count[l];
+  int cut = 0;
+  for (int below = 0; cut < levels && below + count[cut] < n / 2; ++cut) below += count[cut];
+  for (int v = 0; v < n; ++v) part[level[v] < cut ? 0 : level[v] > cut ? 1 : 2].push_back(v);
+}
+
+}  // namespace
+
 bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A) {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   n_ = A.rows();
-  Eigen::AMDOrdering<int> amd;
-  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> Pinv;
-  amd(A, Pinv);  // A holds both triangles; as in Eigen's own Cholesky, twist by the inverse
-  const Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> P = Pinv.inverse();  // P.indices()[old] = new
+  std::vector<int> part[3];
+  if (n_ >= kSplitRows) {
+    split(A, part);
+  } else {
+    part[0].resize(n_);
+    for (Eigen::Index k = 0; k < n_; ++k) part[0][k] = static_cast<int>(k);
+  }
   perm_.resize(n_);
-  for (Eigen::Index old = 0; old < n_; ++old) perm_[P.indices()[old]] = static_cast<int>(old);
+  std::vector<int> local(n_, -1);
+  Eigen::Index next = 0;
+  for (int p = 0; p < 3; ++p)
+    for (int row : amd_order(A, part[p], local)) perm_[next++] = row;
+  half_[0] = static_cast<Eigen::Index>(part[0].size());
+  half_[1] = static_cast<Eigen::Index>(part[1].size());
+  separator_ = half_[0] + half_[1];
+  Permutation P(n_);  // P.indices()[old] = new
+  for (Eigen::Index i = 0; i < n_; ++i) P.indices()[perm_[i]] = static_cast<int>(i);
   Eigen::SparseMatrix<double> permuted;
   permuted = A.selfadjointView<Eigen::Lower>().twistedBy(P);
   const auto ordered = Clock::now();
@@ -36,31 +107,33 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A) {
 
 long BlockCholesky::nonzeros() const { return n_ ? static_cast<long>(llt_.matrixL().nestedExpression().nonZeros()) : 0; }
 
-void BlockCholesky::solve_in_place(double* x, std::vector<double>& work) const {
+void BlockCholesky::forward(double* y, Eigen::Index begin, Eigen::Index end, double* separator) const {
   const auto& L = llt_.matrixL().nestedExpression();
   const int* outer = L.outerIndexPtr();
   const int* inner = L.innerIndexPtr();
   const double* value = L.valuePtr();
-  work.resize(3 * n_);
-  double* y = work.data();
-  for (Eigen::Index i = 0; i < n_; ++i) {
-    const double* src = x + 3 * perm_[i];
-    y[3 * i] = src[0], y[3 * i + 1] = src[1], y[3 * i + 2] = src[2];
-  }
-  // Forward: L y = b, column by column, each entry applied to all three columns.
-  for (Eigen::Index j = 0; j < n_; ++j) {
+  // L y = b column by column, each entry applied to all three columns.
+  for (Eigen::Index j = begin; j < end; ++j) {
     double* yj = y + 3 * j;
     const double d = inv_diag_[j];
     const double a = yj[0] * d, b = yj[1] * d, c = yj[2] * d;
     yj[0] = a, yj[1] = b, yj[2] = c;
     for (int p = outer[j] + 1; p < outer[j + 1]; ++p) {
-      double* yi = y + 3 * inner[p];
+      const Eigen::Index i = inner[p];
+      double* yi = i < separator_ || !separator ? y + 3 * i : separator + 3 * (i - separator_);
       const double l = value[p];
       yi[0] -= l * a, yi[1] -= l * b, yi[2] -= l * c;
     }
   }
-  // Backward: L^T x = y; column j of L is row j of L^T.
-  for (Eigen::Index j = n_ - 1; j >= 0; --j) {
+}
+
+void BlockCholesky::backward(double* y, Eigen::Index begin, Eigen::Index end) const {
+  const auto& L = llt_.matrixL().nestedExpression();
+  const int* outer = L.outerIndexPtr();
+  const int* inner = L.innerIndexPtr();
+  const double* value = L.valuePtr();
+  // L^T x = y; column j of L is row j of L^T.
+  for (Eigen::Index j = end - 1; j >= begin; --j) {
     double a = y[3 * j], b = y[3 * j + 1], c = y[3 * j + 2];
     for (int p = outer[j] + 1; p < outer[j + 1]; ++p) {
       const double* yi = y + 3 * inner[p];
@@ -69,6 +142,38 @@ void BlockCholesky::solve_in_place(double* x, std::vector<double>& work) const {
     }
     const double d = inv_diag_[j];
     y[3 * j] = a * d, y[3 * j + 1] = b * d, y[3 * j + 2] = c * d;
+  }
+}
+
+void BlockCholesky::solve_in_place(double* x, std::vector<double>& work, int threads) const {
+  const Eigen::Index separator_rows = n_ - separator_;
+  work.resize(3 * (n_ + 2 * separator_rows));
+  double* y = work.data();
+  double* partial[2] = {y + 3 * n_, y + 3 * (n_ + separator_rows)};  // each half's updates to the separator
+  for (Eigen::Index i = 0; i < n_; ++i) {
+    const double* src = x + 3 * perm_[i];
+    y[3 * i] = src[0], y[3 * i + 1] = src[1], y[3 * i + 2] = src[2];
+  }
+  std::fill(partial[0], partial[0] + 6 * separator_rows, 0.0);
+  const bool parallel = threads > 1 && half_[1] > 0;
+  // The halves never touch each other's rows; their updates to the separator are
+  // summed afterwards in a fixed order, whatever ran them.
+  {
+    std::thread second;
+    if (parallel) second = std::thread([&] { forward(y, half_[0], separator_, partial[1]); });
+    forward(y, 0, half_[0], partial[0]);
+    if (parallel) second.join();
+    else forward(y, half_[0], separator_, partial[1]);
+  }
+  for (Eigen::Index k = 0; k < 3 * separator_rows; ++k) y[3 * separator_ + k] += partial[0][k] + partial[1][k];
+  forward(y, separator_, n_, nullptr);
+  backward(y, separator_, n_);
+  {
+    std::thread second;
+    if (parallel) second = std::thread([&] { backward(y, half_[0], separator_); });
+    backward(y, 0, half_[0]);
+    if (parallel) second.join();
+    else backward(y, half_[0], separator_);
   }
   for (Eigen::Index i = 0; i < n_; ++i) {
     double* dst = x + 3 * perm_[i];

@@ -1,6 +1,12 @@
 // Sparse Cholesky of a symmetric positive definite matrix with a triangular
 // solve that streams the factor once for three right-hand sides at a time
 // (x, y, z of every vertex), instead of once per column as Eigen's solve does.
+//
+// Large matrices are split in two by a separator (one breadth-first level of
+// the matrix graph): each half is ordered by AMD on its own and the separator
+// comes last, so the factor has no entry coupling the halves and the two
+// halves of each triangular solve can run on two threads. The split does not
+// depend on the thread count: the result is the same bit for bit.
 #pragma once
 
 #include <Eigen/SparseCholesky>
@@ -11,17 +17,28 @@ namespace arap {
 
 class BlockCholesky {
  public:
-  // A: both triangles stored. Orders with AMD, factors P A P^T = L L^T.
+  // A: both triangles stored. Orders (see above), factors P A P^T = L L^T.
   // Returns false if A is not SPD.
   bool factor(const Eigen::SparseMatrix<double>& A);
   double ordering_ms() const { return ordering_ms_; }
   double factor_ms() const { return factor_ms_; }
   // x: rows() by 3 row-major, overwritten with A^-1 x. `work` is resized once.
-  void solve_in_place(double* x, std::vector<double>& work) const;
+  // threads > 1 solves the two halves side by side.
+  void solve_in_place(double* x, std::vector<double>& work, int threads = 1) const;
   long nonzeros() const;
+  // Columns of the first half, the second half and the separator.
+  Eigen::Index first_half() const { return half_[0]; }
+  Eigen::Index second_half() const { return half_[1]; }
 
  private:
+  // Forward / backward substitution over columns [begin, end) of L; forward
+  // updates to rows >= separator_ go to `separator` (3 per row) instead of y.
+  void forward(double* y, Eigen::Index begin, Eigen::Index end, double* separator) const;
+  void backward(double* y, Eigen::Index begin, Eigen::Index end) const;
+
   Eigen::Index n_ = 0;
+  Eigen::Index half_[2] = {0, 0};
+  Eigen::Index separator_ = 0;  // first separator column (= half_[0] + half_[1])
   Eigen::VectorXi perm_;  // row i of P A P^T is row perm_[i] of A
   Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> llt_;
   std::vector<double> inv_diag_;

@@ -84,6 +84,27 @@ void assemble_rhs(const BoundMesh& m, const Eigen::Matrix3d* R, const double* co
   });
 }
 
+void half_gradient(const BoundMesh& m, const double* P, const Eigen::Matrix3d* R, double* g, int threads) {
+  const int nf = static_cast<int>(m.free_vertices.size());
+  for_each_vertex(nf, threads, [&](int r) -> long {
+    const int i = m.free_vertices[r];
+    const double si = m.stiffness[i];
+    const Eigen::Vector3d pi(P[3 * i], P[3 * i + 1], P[3 * i + 2]);
+    Eigen::Vector3d b = si * (R[i] * Eigen::Vector3d(m.g_sum[3 * i], m.g_sum[3 * i + 1], m.g_sum[3 * i + 2]));
+    Eigen::Vector3d l = Eigen::Vector3d::Zero();
+    for (int k = m.spoke_begin[i]; k < m.spoke_begin[i + 1]; ++k) {
+      const Spoke& s = m.spokes[k];
+      const int j = m.neighbor[k];
+      const double sj = m.stiffness[j];
+      b += sj * (R[j] * Eigen::Vector3d(s.gx, s.gy, s.gz));
+      l += (s.w * 0.5 * (si + sj)) * (pi - Eigen::Vector3d(P[3 * j], P[3 * j + 1], P[3 * j + 2]));
+    }
+    const Eigen::Vector3d gi = l - 0.5 * b;
+    g[3 * r] = gi.x(), g[3 * r + 1] = gi.y(), g[3 * r + 2] = gi.z();
+    return 0;
+  });
+}
+
 void energy_gradient(const BoundMesh& m, const double* P, const Eigen::Matrix3d* R, double* gradient) {
   for (int i = 0; i < m.n; ++i) {
     const Eigen::Vector3d pi(P[3 * i], P[3 * i + 1], P[3 * i + 2]);

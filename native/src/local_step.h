@@ -25,6 +25,13 @@ double local_step(const BoundMesh& m, const double* P, Eigen::Matrix3d* R, doubl
 // plus `coupled` (sum of w_ij p_j over constrained neighbours j). Writes #free by 3.
 void assemble_rhs(const BoundMesh& m, const Eigen::Matrix3d* R, const double* coupled, double* rhs, int threads);
 
+// Half the ARAP gradient of every free vertex for positions P (#V by 3, the
+// constrained rows at their targets) and optimal rotations R:
+// g_i = sum_j w~_ij (p'_i - p'_j) - b_i, w~_ij = w_ij (s_i + s_j) / 2, b_i as in
+// assemble_rhs without `coupled`; this is L_ff p_f - b_f - coupled in one pass
+// over the spokes. Writes #free by 3.
+void half_gradient(const BoundMesh& m, const double* P, const Eigen::Matrix3d* R, double* g, int threads);
+
 // The ARAP gradient of every vertex for given positions and optimal rotations:
 // dE/dp'_i = 2 sum_j w_ij (s_i + s_j)(p'_i - p'_j) - 2 sum_j w_ij (s_i R_i + s_j R_j)(p_i - p_j).
 void energy_gradient(const BoundMesh& m, const double* P, const Eigen::Matrix3d* R, double* gradient);

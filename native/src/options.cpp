@@ -11,6 +11,23 @@ Weights parse_weights(const std::string& name) {
   throw Error(ErrorCode::InvalidInput, "unknown weights '" + name + "' (expected cotan, cotan-clamped or uniform)");
 }
 
+Method parse_method(const std::string& name) {
+  if (name == "quasi-newton") return Method::QuasiNewton;
+  if (name == "local-global") return Method::LocalGlobal;
+  if (name == "anderson") return Method::Anderson;
+  throw Error(ErrorCode::InvalidInput,
+              "unknown method '" + name + "' (expected quasi-newton, local-global or anderson)");
+}
+
+std::string to_string(Method m) {
+  switch (m) {
+    case Method::QuasiNewton: return "quasi-newton";
+    case Method::LocalGlobal: return "local-global";
+    case Method::Anderson: return "anderson";
+  }
+  return "?";
+}
+
 InitialGuess parse_initial_guess(const std::string& name) {
   if (name == "differential") return InitialGuess::Differential;
   if (name == "naive") return InitialGuess::Naive;

@@ -180,6 +180,48 @@ TEST_F(Cli, BendsABarAndReports) {
   EXPECT_GT((out.vertices - bar.vertices).rowwise().norm().maxCoeff(), 2.0 - 1e-6);
 }
 
+TEST_F(Cli, DefaultsSolveUntilSettledAndReportAHitCap) {
+  make_bar_files();
+  const std::string setup = "bar.obj --fixed fixed.txt --handle handle.txt --translate 2,0,-1 ";
+  Result r = run(setup + "--output d.obj --report d.json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(r.err.empty()) << r.err;
+  EXPECT_NE(r.out.find("method quasi-newton"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("converged after"), std::string::npos) << r.out;
+  const json settled = json::parse(slurp(path("d.json")));
+  EXPECT_TRUE(settled["converged"].get<bool>());
+  EXPECT_EQ(settled["method"], "quasi-newton");
+  EXPECT_LT(settled["iterations"].get<int>(), settled["max_iterations"].get<int>());
+
+  // The textbook iteration on request: exactly N plain iterations, a higher energy after them.
+  r = run(setup + "--method local-global --iterations 10 --tolerance 0 --output p.obj --report p.json -q");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const json plain = json::parse(slurp(path("p.json")));
+  EXPECT_EQ(plain["method"], "local-global");
+  EXPECT_EQ(plain["iterations"].get<int>(), 10);
+  EXPECT_GT(plain["energy"].back().get<double>(), settled["energy"].back().get<double>());
+
+  // A cap below what the tolerance needs: the result is written and the cap is named.
+  r = run(setup + "--iterations 2 --output c.obj -q");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("cap of 2 iterations"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(path("c.obj")));
+}
+
+TEST_F(Cli, MethodsAreListedAndChecked) {
+  make_bar_files();
+  const Result help = run("--help");
+  for (const char* name : {"quasi-newton", "local-global", "anderson"})
+    EXPECT_NE(help.out.find(name), std::string::npos) << name;
+  const std::string ok = "bar.obj --fixed fixed.txt --handle handle.txt --translate 1,0,0";
+  expect_bad_input(ok + " --method newton");
+  expect_bad_input(ok + " --method quasi-newton --anderson 3");
+  // --anderson alone keeps meaning the accelerated alternation.
+  const Result r = run(ok + " --anderson 3 --output a.off --report a.json -q");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(json::parse(slurp(path("a.json")))["method"], "anderson");
+}
+
 TEST_F(Cli, ScenarioWithMatrixHandleAndOverlapWarning) {
   const auto bar = make_bar_files("bar.off");
   // Rotate the top 90 degrees about z through the bar's axis (0.5, 0.5), and

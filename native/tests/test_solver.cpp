@@ -28,8 +28,10 @@ struct BentTube {
   }
 };
 
-arap::Options options_with(arap::InitialGuess init, int iterations, double tolerance = 0) {
+arap::Options options_with(arap::InitialGuess init, int iterations, double tolerance = 0,
+                           arap::Method method = arap::Method::QuasiNewton) {
   arap::Options o;
+  o.method = method;
   o.init = init;
   o.max_iterations = iterations;
   o.tolerance = tolerance;
@@ -65,25 +67,33 @@ TEST(Solver, RigidMotionOfAllConstraintsGivesTheRigidlyMovedMesh) {
   }
 }
 
+constexpr arap::Method kMethods[] = {arap::Method::QuasiNewton, arap::Method::LocalGlobal, arap::Method::Anderson};
+
 TEST(Solver, EnergyNeverIncreases) {
   const BentTube t;
-  for (auto weights : {arap::Weights::Cotan, arap::Weights::CotanClamped, arap::Weights::Uniform}) {
-    arap::Options o = options_with(arap::InitialGuess::Naive, 50);
-    o.weights = weights;
-    arap::Solver solver;
-    solver.bind(t.mesh.V, t.mesh.F, t.constrained, o);
-    const auto stats = solver.solve(t.targets);
-    ASSERT_EQ(stats.energy.size(), 50u);
-    EXPECT_LE(stats.energy[0], stats.initial_energy * (1 + 1e-12));
-    for (size_t k = 1; k < stats.energy.size(); ++k)
-      EXPECT_LE(stats.energy[k], stats.energy[k - 1] + 1e-10 * std::abs(stats.energy[0])) << "iteration " << k;
-  }
+  for (auto method : kMethods)
+    for (auto weights : {arap::Weights::Cotan, arap::Weights::CotanClamped, arap::Weights::Uniform}) {
+      arap::Options o = options_with(arap::InitialGuess::Naive, 50, 0, method);
+      o.weights = weights;
+      arap::Solver solver;
+      solver.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+      const auto stats = solver.solve(t.targets);
+      // Tolerance 0 still stops once the energy no longer falls (the quasi-Newton method gets there).
+      ASSERT_GE(stats.energy.size(), method == arap::Method::LocalGlobal ? 50u : 10u) << arap::to_string(method);
+      EXPECT_LE(stats.energy[0], stats.initial_energy * (1 + 1e-12));
+      // The quasi-Newton method keeps a step only if its energy is not higher; the plain step
+      // (and Anderson's fallback to it) may rise by rounding at the minimum.
+      const double slack = method == arap::Method::QuasiNewton ? 0.0 : 1e-10 * std::abs(stats.energy[0]);
+      for (size_t k = 1; k < stats.energy.size(); ++k)
+        EXPECT_LE(stats.energy[k], stats.energy[k - 1] + slack) << arap::to_string(method) << " iteration " << k;
+    }
 }
 
 TEST(Solver, MatchesAnIndependentTextbookImplementation) {
   const BentTube t;
   arap::Solver solver;
-  solver.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 10));
+  solver.bind(t.mesh.V, t.mesh.F, t.constrained,
+              options_with(arap::InitialGuess::Naive, 10, 0, arap::Method::LocalGlobal));
   solver.options().weights = arap::Weights::CotanClamped;
   const auto stats = solver.solve(t.targets);
 
@@ -98,20 +108,102 @@ TEST(Solver, MatchesAnIndependentTextbookImplementation) {
 
 TEST(Solver, ConvergesToAStationaryPoint) {
   const BentTube t;
+  for (auto method : kMethods) {
+    arap::Solver solver;
+    solver.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Laplacian, 2000, 1e-13, method));
+    arap::Points start = t.mesh.V;
+    for (size_t k = 0; k < t.constrained.size(); ++k) start.row(t.constrained[k]) = t.targets.row(k);
+    const double initial_gradient = solver.energy_gradient(start).norm();
+    solver.solve(t.targets);
+    const arap::Points& P = solver.positions();
+    const arap::Points gradient = solver.energy_gradient(P);
+    double free_gradient = 0;
+    for (int v = 2 * kAround; v < P.rows() - kAround; ++v) free_gradient += gradient.row(v).squaredNorm();
+    // Ring 0 and the last ring are the first and last vertices: the rest are free.
+    EXPECT_LT(std::sqrt(free_gradient), 1e-4 * initial_gradient) << arap::to_string(method);
+    for (size_t k = 0; k < t.constrained.size(); ++k)
+      EXPECT_LT((P.row(t.constrained[k]) - t.targets.row(k)).norm(), 1e-12);
+  }
+}
+
+// The tube bent sideways, or twisted by a quarter turn about its axis.
+std::vector<BentTube> quasi_newton_cases() {
+  std::vector<BentTube> cases{BentTube(2.5), BentTube(0.0)};
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  for (int k = kAround; k < 2 * kAround; ++k) cases[1].targets.row(k) = cases[1].targets.row(k) * R.transpose();
+  return cases;
+}
+
+TEST(QuasiNewton, ReachesPlainArapsMinimumInFewerIterations) {
+  for (const BentTube& t : quasi_newton_cases()) {
+    arap::Solver plain, quasi_newton;
+    plain.bind(t.mesh.V, t.mesh.F, t.constrained,
+               options_with(arap::InitialGuess::Naive, 2000, 0, arap::Method::LocalGlobal));
+    quasi_newton.bind(t.mesh.V, t.mesh.F, t.constrained, arap::Options());  // the defaults
+    const auto p = plain.solve(t.targets), q = quasi_newton.solve(t.targets);
+    const double best = std::min(p.energy.back(), q.energy.back());
+    const double band = best + 1e-3 * std::abs(best);
+    auto to_band = [&](const arap::SolveStats& s) {
+      for (size_t k = 0; k < s.energy.size(); ++k)
+        if (s.energy[k] <= band) return static_cast<int>(k + 1);
+      return 1 << 20;
+    };
+    EXPECT_TRUE(q.converged);  // the tolerance stopped it, not the cap
+    EXPECT_LE(q.energy.back(), band);  // the same minimum, within 1e-3
+    EXPECT_LT(2 * to_band(q), to_band(p)) << to_band(q) << " vs " << to_band(p);
+    // The same shape too, not just the same energy.
+    EXPECT_LT((quasi_newton.positions() - plain.positions()).cwiseAbs().maxCoeff(), 1e-2);
+    EXPECT_EQ(q.quasi_newton_resets, 0);  // its directions were descent directions on this smooth problem
+  }
+}
+
+TEST(QuasiNewton, EmptyHistoryStepIsTheLocalGlobalStep) {
+  // With no pair stored, the first direction is -L^-1 g, i.e. the plain global step: one iteration of
+  // each method from the same start lands on the same positions.
+  const BentTube t;
+  arap::Solver plain, quasi_newton;
+  plain.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 1, 0, arap::Method::LocalGlobal));
+  quasi_newton.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 1));
+  const auto p = plain.solve(t.targets), q = quasi_newton.solve(t.targets);
+  EXPECT_LT((quasi_newton.positions() - plain.positions()).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_NEAR(q.energy[0], p.energy[0], 1e-9 * p.energy[0]);
+}
+
+TEST(QuasiNewton, AWarmSolveWithTheSameTargetsResumesWhereTheLastStopped) {
+  // 12 iterations in one solve, or 5 and then 7 warm: the same arithmetic, bit for bit.
+  const BentTube t;
+  arap::Solver once, split;
+  once.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 12));
+  split.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 5));
+  const auto whole = once.solve(t.targets);
+  split.solve(t.targets);
+  split.options().init = arap::InitialGuess::WarmStart;
+  split.options().max_iterations = 7;
+  const auto rest = split.solve(t.targets);
+  EXPECT_EQ(split.positions(), once.positions());
+  EXPECT_EQ(rest.energy.back(), whole.energy.back());
+  EXPECT_EQ(rest.initial_energy, whole.energy[4]);
+  // New targets start afresh from the warm positions instead (a global step, then a new history).
+  const BentTube moved(2.6);
+  const auto next = split.solve(moved.targets);
+  EXPECT_NE(next.initial_energy, rest.energy.back());
+}
+
+TEST(Solver, TimeBudgetStopsAfterTheIterationThatSpendsIt) {
+  const BentTube t;
+  for (auto method : kMethods) {
+    arap::Options o = options_with(arap::InitialGuess::Naive, 500, 1e-12, method);
+    o.time_budget_ms = 1e-9;
+    arap::Solver solver;
+    solver.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+    const auto stats = solver.solve(t.targets);
+    EXPECT_EQ(stats.iterations, 1) << arap::to_string(method);
+    EXPECT_FALSE(stats.converged);
+  }
   arap::Solver solver;
-  solver.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Laplacian, 2000, 1e-13));
-  arap::Points start = t.mesh.V;
-  for (size_t k = 0; k < t.constrained.size(); ++k) start.row(t.constrained[k]) = t.targets.row(k);
-  const double initial_gradient = solver.energy_gradient(start).norm();
-  solver.solve(t.targets);
-  const arap::Points& P = solver.positions();
-  const arap::Points gradient = solver.energy_gradient(P);
-  double free_gradient = 0;
-  for (int v = 2 * kAround; v < P.rows() - kAround; ++v) free_gradient += gradient.row(v).squaredNorm();
-  // Ring 0 and the last ring are the first and last vertices: the rest are free.
-  EXPECT_LT(std::sqrt(free_gradient), 1e-4 * initial_gradient);
-  for (size_t k = 0; k < t.constrained.size(); ++k)
-    EXPECT_LT((P.row(t.constrained[k]) - t.targets.row(k)).norm(), 1e-12);
+  arap::Options bad;
+  bad.time_budget_ms = -1;
+  EXPECT_THROW(solver.bind(t.mesh.V, t.mesh.F, t.constrained, bad), arap::Error);
 }
 
 TEST(Solver, GradientMatchesFiniteDifferencesOfTheEnergy) {
@@ -146,27 +238,42 @@ TEST(Solver, EveryFirstGuessMeetsTheConstraintsAndConverges) {
 }
 
 TEST(Solver, WarmStartNeedsFewerIterationsThanColdStartForASmallMove) {
-  BentTube t(2.5);
-  const double tolerance = 1e-7;
-  arap::Solver warm;
-  warm.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::WarmStart, 1000, tolerance));
-  warm.solve(t.targets);
-  BentTube moved(2.6);
-  const auto warm_stats = warm.solve(moved.targets);
-  arap::Solver cold;
-  cold.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Laplacian, 1000, tolerance));
-  const auto cold_stats = cold.solve(moved.targets);
-  EXPECT_TRUE(warm_stats.converged);
-  EXPECT_TRUE(cold_stats.converged);
-  EXPECT_LT(warm_stats.iterations, cold_stats.iterations);
+  for (auto method : kMethods) {
+    BentTube t(2.5);
+    const double tolerance = 1e-7;
+    arap::Solver warm;
+    warm.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::WarmStart, 1000, tolerance, method));
+    warm.solve(t.targets);
+    BentTube moved(2.6);
+    const auto warm_stats = warm.solve(moved.targets);
+    arap::Solver cold;
+    cold.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Laplacian, 1000, tolerance, method));
+    const auto cold_stats = cold.solve(moved.targets);
+    EXPECT_TRUE(warm_stats.converged);
+    EXPECT_TRUE(cold_stats.converged);
+    EXPECT_LT(warm_stats.iterations, cold_stats.iterations) << arap::to_string(method);
+  }
 }
+
+// A tube of `around` x `rings` vertices, bottom ring fixed, top ring moved by `shift` along `axis`.
+struct LongTube {
+  arap_test::Mesh mesh;
+  std::vector<int> constrained;
+  arap::Points targets;
+  LongTube(int around, int rings, double height, int axis, double shift)
+      : mesh(arap_test::tube(around, rings, height)),
+        constrained(concat(ring_vertices(around, 0), ring_vertices(around, rings - 1))),
+        targets(rows_of(mesh.V, constrained)) {
+    for (int k = around; k < 2 * around; ++k) targets(k, axis) += shift;
+  }
+};
 
 TEST(Solver, ResultsAreDeterministicAndIndependentOfThreads) {
   // Large enough (4800 vertices) that two threads really run.
-  const auto mesh = arap_test::tube(80, 60, 6.0);
-  const std::vector<int> constrained = concat(ring_vertices(80, 0), ring_vertices(80, 59));
-  arap::Points targets = rows_of(mesh.V, constrained);
-  for (int k = 80; k < 160; ++k) targets(k, 1) += 2.0;
+  const LongTube t(80, 60, 6.0, 1, 2.0);
+  const auto& mesh = t.mesh;
+  const auto& constrained = t.constrained;
+  const auto& targets = t.targets;
   arap::Points first;
   std::vector<double> first_energy;
   for (int threads : {1, 2, 1}) {
@@ -181,6 +288,33 @@ TEST(Solver, ResultsAreDeterministicAndIndependentOfThreads) {
     } else {
       EXPECT_EQ(solver.positions(), first);
       EXPECT_EQ(stats.energy, first_energy);
+    }
+  }
+}
+
+TEST(Solver, LargeMeshesSolveTheSameOnOneOrTwoThreadsAndMatchTheTextbook) {
+  // 22,400 vertices: above the size at which the factor is split in two halves and a separator.
+  const LongTube t(160, 140, 20.0, 0, 6.0);
+  const auto& mesh = t.mesh;
+  const auto& constrained = t.constrained;
+  const auto& targets = t.targets;
+  arap::Points first;
+  for (int threads : {1, 2}) {
+    arap::Options o = options_with(arap::InitialGuess::Naive, 4, 0, arap::Method::LocalGlobal);
+    o.threads = threads;
+    arap::Solver solver;
+    solver.bind(mesh.V, mesh.F, constrained, o);
+    const auto stats = solver.solve(targets);
+    if (threads == 1) {
+      first = solver.positions();
+      arap_test::ReferenceArap reference(mesh.V, mesh.F, constrained, arap::Weights::CotanClamped);
+      arap::Points P = mesh.V;
+      for (size_t k = 0; k < constrained.size(); ++k) P.row(constrained[k]) = targets.row(k);
+      const auto expected = reference.run(P, 4);
+      for (int k = 0; k < 4; ++k) EXPECT_NEAR(stats.energy[k], expected[k], 1e-9 * expected[0]);
+      EXPECT_LT((solver.positions() - P).cwiseAbs().maxCoeff(), 1e-8);
+    } else {
+      EXPECT_EQ(solver.positions(), first);
     }
   }
 }
@@ -233,7 +367,8 @@ namespace {
 TEST(Solver, AndersonAccelerationStaysMonotoneAndConvergesFaster) {
   const BentTube t;
   auto run = [&](int window) {
-    arap::Options o = options_with(arap::InitialGuess::Naive, 150);
+    arap::Options o = options_with(arap::InitialGuess::Naive, 150, 0,
+                                   window ? arap::Method::Anderson : arap::Method::LocalGlobal);
     o.anderson_window = window;
     arap::Solver solver;
     solver.bind(t.mesh.V, t.mesh.F, t.constrained, o);
@@ -288,8 +423,13 @@ TEST(Stiffness, UniformScaleChangesTheEnergyNotTheShape) {
   scaled.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Laplacian, 40),
               std::vector<double>(t.mesh.V.rows(), 3.0));
   const auto a = plain.solve(t.targets), b = scaled.solve(t.targets);
+  // The quasi-Newton method is scale-invariant but for rounding, which can steer its line
+  // search differently: the same shape to 1e-7 (the tube is 6 long), the textbook one exactly.
+  EXPECT_LT((plain.positions() - scaled.positions()).cwiseAbs().maxCoeff(), 1e-7);
+  EXPECT_NEAR(b.energy.back(), 3.0 * a.energy.back(), 1e-8 * a.energy.back());
+  for (arap::Solver* s : {&plain, &scaled}) s->options().method = arap::Method::LocalGlobal;
+  plain.solve(t.targets), scaled.solve(t.targets);
   EXPECT_LT((plain.positions() - scaled.positions()).cwiseAbs().maxCoeff(), 1e-9);
-  EXPECT_NEAR(b.energy.back(), 3.0 * a.energy.back(), 1e-9 * a.energy.back());
 }
 
 TEST(Stiffness, GradientMatchesFiniteDifferencesAndEnergyNeverIncreases) {

@@ -21,22 +21,37 @@ enum class InitialGuess {
   WarmStart,     // the last solution (falls back to `cold_start` before the first solve)
 };
 
+// How the energy is minimised (see README, "Defaults, and why").
+enum class Method {
+  QuasiNewton,  // L-BFGS on the ARAP energy, the factored Laplacian as its initial Hessian and a
+                // line search (Liu et al. 2017); energy monotone; the default
+  LocalGlobal,  // Sorkine & Alexa's alternation of local and global steps (the textbook iteration)
+  Anderson,     // local/global with Anderson acceleration over `anderson_window` iterates (Peng et al. 2018)
+};
+
 struct Options {
+  Method method = Method::QuasiNewton;
   Weights weights = Weights::CotanClamped;
   InitialGuess init = InitialGuess::Naive;
   // Used when init == WarmStart and there is no previous solution yet.
   InitialGuess cold_start = InitialGuess::Naive;
-  int max_iterations = 10;
+  // A safety cap: solves stop at the tolerance long before it on the measured meshes.
+  int max_iterations = 1000;
   // Stop when (E_prev - E) <= tolerance * |E_prev|; 0 runs the whole budget.
   double tolerance = 1e-6;
   // Threads for the local step and the right-hand side (meshes of 2048+ vertices); 1 = none started.
   int threads = 1;
-  // Anderson acceleration window (Peng et al. 2018); 0 = plain local/global.
-  int anderson_window = 0;
+  // Anderson acceleration window (Peng et al. 2018) of Method::Anderson; 0 = plain local/global.
+  int anderson_window = 5;
+  // Stop after the iteration that passes this many milliseconds of solve()
+  // (e.g. a viewport frame); the result is then not `converged`. 0 = no limit.
+  double time_budget_ms = 0;
 };
 
 // Parse / print the names used on the command line and in Python ("cotan-clamped").
 Weights parse_weights(const std::string& name);
+Method parse_method(const std::string& name);
+std::string to_string(Method m);
 InitialGuess parse_initial_guess(const std::string& name);
 std::string to_string(Weights w);
 std::string to_string(InitialGuess g);

@@ -34,6 +34,9 @@ struct SolveStats {
   bool converged = false;             // stopped on the tolerance, not the budget
   long rotation_fallbacks = 0;        // 3x3 fits that needed the full SVD
   long anderson_rejections = 0;       // accelerated steps refused by the energy safeguard
+  double direction_ms = 0;            // quasi-Newton: gradients and the L-BFGS two-loop, all iterations
+  long line_search_steps = 0;         // quasi-Newton: trial points beyond the first of each iteration
+  long quasi_newton_resets = 0;       // quasi-Newton: directions refused (history dropped, plain step taken)
 };
 
 struct BindStats {
@@ -61,9 +64,14 @@ class Solver {
             const std::vector<int>& constrained, const Options& options = Options(),
             const std::vector<double>& stiffness = {});
 
-  // targets: #constrained by 3, in the order given to bind(). Runs up to
-  // options().max_iterations iterations from options().init and leaves the
-  // result in positions(). Never leaves NaN in positions(): on a non-finite
+  // targets: #constrained by 3, in the order given to bind(). Runs
+  // options().method from options().init until the energy falls by at most
+  // options().tolerance relative in an iteration (stats.converged) or
+  // options().max_iterations is reached, and leaves the result in positions().
+  // The energy never increases from one iteration to the next. A warm start
+  // (options().init == WarmStart) with the same targets as the last solve
+  // resumes the quasi-Newton iteration where that solve stopped (history
+  // included), so a solve cut short by time_budget_ms loses nothing. Never leaves NaN in positions(): on a non-finite
   // target it throws before touching them.
   SolveStats solve(const Eigen::Ref<const Points>& targets);
 

@@ -1,0 +1,94 @@
+// Limited-memory BFGS directions (Nocedal & Wright, "Numerical Optimization",
+// algorithm 7.4, the two-loop recursion) whose initial inverse Hessian is a
+// caller-given preconditioner. With the factored Laplacian as that
+// preconditioner this is the quasi-Newton method of Liu, Bouaziz & Kavan 2017
+// ("Quasi-Newton methods for real-time simulation of hyperelastic materials"):
+// with an empty history the direction is exactly the local/global step.
+#pragma once
+
+#include <algorithm>
+
+#include <Eigen/Core>
+
+namespace arap {
+
+class LbfgsHistory {
+ public:
+  // Forget every pair and size the buffers (allocates; not in the loop).
+  void reset(int capacity, Eigen::Index dimension);
+  void clear() { stored_ = 0; }
+  int stored() const { return stored_; }
+
+  // Where the caller writes the next pair s = x_{k+1} - x_k, y = g_{k+1} - g_k
+  // (no copy); commit() then keeps it if s.y > 0, the curvature condition that
+  // keeps the implied inverse Hessian positive definite.
+  double* next_s();
+  double* next_y();
+  bool commit(double sy, double ss, double yy);
+
+  // d = -H g, H the L-BFGS inverse Hessian on preconditioner(v) (in place:
+  // v <- H0 v). Returns g.d, the directional derivative of half the energy.
+  template <class Preconditioner>
+  double direction(const double* g, double* d, const Preconditioner& preconditioner);
+
+ private:
+  int column(int k) const { return (newest_ - k + capacity_) % capacity_; }  // k = 0: newest
+  int capacity_ = 0, stored_ = 0, newest_ = -1;
+  Eigen::MatrixXd s_, y_;        // dimension by capacity, used as rings
+  Eigen::VectorXd rho_, alpha_;  // 1 / (s.y) per pair; first-loop coefficients
+};
+
+namespace lbfgs_detail {
+
+// q <- q + a x, and returns z.q of the updated q (z may be null: returns 0).
+// Four partial sums in a fixed order: the compiler may vectorise the loop
+// without reassociating, and the result does not depend on it.
+inline double axpy_dot(double* q, double a, const double* x, const double* z, Eigen::Index n) {
+  double d0 = 0, d1 = 0, d2 = 0, d3 = 0;
+  Eigen::Index i = 0;
+  if (z) {
+    for (; i + 4 <= n; i += 4) {
+      q[i] += a * x[i], q[i + 1] += a * x[i + 1], q[i + 2] += a * x[i + 2], q[i + 3] += a * x[i + 3];
+      d0 += z[i] * q[i], d1 += z[i + 1] * q[i + 1], d2 += z[i + 2] * q[i + 2], d3 += z[i + 3] * q[i + 3];
+    }
+    for (; i < n; ++i) q[i] += a * x[i], d0 += z[i] * q[i];
+  } else {
+    for (; i < n; ++i) q[i] += a * x[i];
+  }
+  return (d0 + d1) + (d2 + d3);
+}
+
+}  // namespace lbfgs_detail
+
+template <class Preconditioner>
+double LbfgsHistory::direction(const double* g, double* d, const Preconditioner& preconditioner) {
+  using lbfgs_detail::axpy_dot;
+  const Eigen::Index n = s_.rows();
+  double* q = d;
+  // Each pass over q applies one pair's update and takes the dot product the
+  // next pair needs, so q streams through memory once per pair, not twice.
+  // First loop, newest pair to oldest: alpha_i = rho_i s_i.q, q <- q - alpha_i y_i.
+  std::copy(g, g + n, q);
+  double dot = stored_ > 0 ? axpy_dot(q, 0.0, g, s_.col(column(0)).data(), n) : 0.0;
+  for (int k = 0; k < stored_; ++k) {
+    const int c = column(k);
+    const double a = alpha_[c] = rho_[c] * dot;
+    const double* s_next = k + 1 < stored_ ? s_.col(column(k + 1)).data() : nullptr;
+    dot = axpy_dot(q, -a, y_.col(c).data(), s_next, n);
+  }
+  preconditioner(q);  // r = H0 q
+  // Second loop, oldest to newest: beta_i = rho_i y_i.r, r <- r + (alpha_i - beta_i) s_i.
+  dot = stored_ > 0 ? axpy_dot(q, 0.0, g, y_.col(column(stored_ - 1)).data(), n) : 0.0;
+  for (int k = stored_ - 1; k >= 0; --k) {
+    const int c = column(k);
+    const double* y_next = k > 0 ? y_.col(column(k - 1)).data() : nullptr;
+    dot = axpy_dot(q, alpha_[c] - rho_[c] * dot, s_.col(c).data(), y_next, n);
+  }
+  // d = -r, and g.d.
+  double slope = 0;
+  for (Eigen::Index i = 0; i < n; ++i) q[i] = -q[i];
+  slope = axpy_dot(q, 0.0, g, g, n);
+  return slope;
+}
+
+}  // namespace arap
