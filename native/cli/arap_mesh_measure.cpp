@@ -15,7 +15,7 @@
 namespace {
 
 const char* const kUsage = R"(Usage:
-  arap-mesh-measure REST POSED [--planes N]
+  arap-mesh-measure REST POSED [--planes N] [--list-intersections]
 
 REST and POSED are meshes with the same faces (.off .obj .ply .stl), e.g. an
 arap-deform input and its output. Prints one JSON object:
@@ -26,7 +26,9 @@ arap-deform input and its output. Prints one JSON object:
                         area of the rest mesh's cuts by N planes (default 9)
                         across its principal axis, followed as material curves
                         into the posed mesh, posed / rest
-  self_intersections    triangle pairs sharing no vertex that cross (posed),
+  self_intersections    triangle pairs sharing no vertex that cross (posed;
+                        --list-intersections: intersecting_pairs, the
+                        triangle indices of the fan-triangulated faces),
   rest_self_intersections  the same at rest
   distortion, flipped_triangles  as in arap-deform's report
 Exit status 2 on bad input, with one line on stderr.
@@ -39,11 +41,14 @@ int main(int argc, char** argv) {
   try {
     std::string rest_path, posed_path;
     int planes = 9;
+    bool list_pairs = false;
     for (int i = 1; i < argc; ++i) {
       const std::string arg = argv[i];
       if (arg == "--help" || arg == "-h") {
         std::fputs(kUsage, stdout);
         return 0;
+      } else if (arg == "--list-intersections") {
+        list_pairs = true;
       } else if (arg == "--planes" && i + 1 < argc) {
         planes = std::stoi(argv[++i]);
         if (planes < 1 || planes > 1000) throw std::invalid_argument("--planes expects 1..1000");
@@ -75,7 +80,10 @@ int main(int argc, char** argv) {
     r["cross_section_median"] = sections.median;
     r["cross_section_min"] = sections.min;
     r["cross_section_loops"] = sections.loops;
-    r["self_intersections"] = measure::self_intersecting_pairs(posed.vertices, triangles);
+    r["cross_section_ratios"] = sections.ratios;
+    std::vector<std::pair<int, int>> pairs;
+    r["self_intersections"] = measure::self_intersecting_pairs(posed.vertices, triangles, list_pairs ? &pairs : nullptr);
+    if (list_pairs) r["intersecting_pairs"] = pairs;
     r["rest_self_intersections"] = measure::self_intersecting_pairs(rest.vertices, triangles);
     r["distortion"] = distortion;
     r["flipped_triangles"] = flipped;

@@ -187,8 +187,9 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
     throw UsageError("--anderson applies to --method anderson only");
   if (infill_resolution_given && a.options.volume != Volume::Infill)
     throw UsageError("--infill-resolution applies to --volume infill only");
-  if (a.options.volume == Volume::Global && a.options.method == Method::Anderson)
-    throw UsageError("--volume global works with --method quasi-newton or local-global, not anderson");
+  if (a.options.volume != Volume::None && a.options.method == Method::Anderson)
+    throw UsageError("--volume " + to_string(a.options.volume) +
+                     " works with --method quasi-newton or local-global, not anderson");
   if (a.scenario.empty() == a.input.empty()) throw UsageError("give either --scenario S.json or an INPUT mesh");
   if (!a.scenario.empty() && (!a.fixed_file.empty() || !a.handles.empty()))
     throw UsageError("--fixed/--handle cannot be combined with --scenario");

@@ -60,6 +60,8 @@ nlohmann::json make_report(const RunInfo& run, const Solver& solver, const Solve
   r["nonmanifold_edges"] = m.nonmanifold_edges;
   r["volume_kept_components"] = m.volume_kept_components;
   r["volume_open_components"] = m.volume_open_components;
+  r["infill_cells"] = m.infill_cells;
+  r["infill_nodes"] = m.infill_nodes;
   return r;
 }
 

@@ -115,7 +115,8 @@ VolumeKept volume_kept(const Eigen::Ref<const Points>& rest, const Eigen::Ref<co
   return v;
 }
 
-long self_intersecting_pairs(const Eigen::Ref<const Points>& positions, const Eigen::Ref<const Triangles>& triangles) {
+long self_intersecting_pairs(const Eigen::Ref<const Points>& positions, const Eigen::Ref<const Triangles>& triangles,
+                             std::vector<std::pair<int, int>>* list) {
   const Eigen::Index m = triangles.rows();
   if (m < 2) return 0;
   std::vector<Eigen::Vector3d> lo(m), hi(m);
@@ -144,11 +145,11 @@ long self_intersecting_pairs(const Eigen::Ref<const Points>& positions, const Ei
         for (long k = a[2]; k <= b[2]; ++k) grid[cell_key(i, j, k)].push_back(static_cast<int>(f));
   }
   long pairs = 0;
-  for (const auto& [key, list] : grid) {
+  for (const auto& [key, bucket] : grid) {
     const long ci = key >> 42, cj = (key >> 21) & ((1L << 21) - 1), ck = key & ((1L << 21) - 1);
-    for (size_t x = 0; x < list.size(); ++x)
-      for (size_t y = x + 1; y < list.size(); ++y) {
-        const int f = list[x], g = list[y];
+    for (size_t x = 0; x < bucket.size(); ++x)
+      for (size_t y = x + 1; y < bucket.size(); ++y) {
+        const int f = bucket[x], g = bucket[y];
         const Eigen::Vector3d overlap_lo = lo[f].cwiseMax(lo[g]), overlap_hi = hi[f].cwiseMin(hi[g]);
         if ((overlap_lo.array() > overlap_hi.array()).any()) continue;
         // Test each pair once: in the cell holding the low corner of the boxes' overlap.
@@ -162,7 +163,9 @@ long self_intersecting_pairs(const Eigen::Ref<const Points>& positions, const Ei
                                        row(positions, triangles(f, 2))};
         const Eigen::Vector3d tg[3] = {row(positions, triangles(g, 0)), row(positions, triangles(g, 1)),
                                        row(positions, triangles(g, 2))};
-        pairs += triangles_intersect(tf, tg);
+        if (!triangles_intersect(tf, tg)) continue;
+        ++pairs;
+        if (list) list->emplace_back(std::min(f, g), std::max(f, g));
       }
   }
   return pairs;

@@ -9,6 +9,8 @@
 #include "anderson.h"
 #include "block_cholesky.h"
 #include "bound_mesh.h"
+#include "infill.h"
+#include "infill_volume.h"
 #include "initial_guess.h"
 #include "lbfgs.h"
 #include "local_step.h"
@@ -41,10 +43,11 @@ void check_options(const Options& o) {
     throw Error(ErrorCode::InvalidInput, "unknown volume mode");
   if (o.infill_resolution < 2 || o.infill_resolution > 256)
     throw Error(ErrorCode::InvalidInput, "the infill resolution must be between 2 and 256 cells");
-  if (o.volume == Volume::Global && o.method == Method::Anderson)
+  if (o.volume != Volume::None && o.method == Method::Anderson)
     throw Error(ErrorCode::InvalidInput,
-                "volume global works with the quasi-newton and local-global methods, not anderson (its "
-                "extrapolated points would leave the volume constraint)");
+                "volume " + to_string(o.volume) +
+                    " works with the quasi-newton and local-global methods, not anderson (its extrapolated points "
+                    "are not checked against the volume terms)");
 }
 
 double dot(const std::vector<double>& a, const std::vector<double>& b) {
@@ -106,6 +109,8 @@ struct Solver::Impl {
   // Lagrangian gradient in qn_g. Local/global runs on that path too, without history.
   VolumeConstraint volume;
   std::vector<double> qn_n, qn_u;
+  // Volume::Infill's bulk term (see infill_volume.h), on the same path.
+  LatticeBulk bulk;
   bool qn_history = true;
 
   void gather_free(std::vector<double>& out) const {
@@ -146,6 +151,7 @@ struct Solver::Impl {
     gather_free(qn_x);
     const auto t = Clock::now();
     half_gradient(mesh, state.data(), rotations.data(), qn_g.data(), options.threads);
+    if (bulk.active()) bulk.add_half_gradient(state.data(), qn_g.data());
     stats.direction_ms += ms_since(t);
     if (volume.active()) {
       volume_normal(stats);
@@ -275,6 +281,7 @@ struct Solver::Impl {
     double* s = lbfgs.next_s();
     double* y = lbfgs.next_y();
     half_gradient(mesh, state.data(), rotations.data(), y, options.threads);
+    if (bulk.active()) bulk.add_half_gradient(state.data(), y);
     if (volume.active()) {
       // The step returned onto the constraint: s is where it landed, y the change of the Lagrangian gradient.
       stats.direction_ms += ms_since(t);
@@ -339,8 +346,9 @@ struct Solver::Impl {
 
   double local(SolveStats& stats) {
     const auto t = Clock::now();
-    const double e = local_step(mesh, state.data(), rotations.data(), cell_energy.data(), options.threads,
-                                &stats.rotation_fallbacks, eigenvalues.data());
+    double e = local_step(mesh, state.data(), rotations.data(), cell_energy.data(), options.threads,
+                          &stats.rotation_fallbacks, eigenvalues.data());
+    if (bulk.active()) e += bulk.energy(state.data());
     stats.rotation_ms += ms_since(t);
     rotations_valid = true;
     return e;
@@ -363,7 +371,11 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
   next->bound_volume = options.volume;
   next->bound_infill_resolution = options.infill_resolution;
   next->unit = unit_scale_of(rest);
-  next->mesh = build_bound_mesh(rest / next->unit, triangles, constrained, options.weights, stiffness);
+  const Points scaled = rest / next->unit;
+  InfillGraph infill;
+  if (options.volume == Volume::Infill) infill = build_infill(scaled, triangles, options.infill_resolution);
+  next->mesh = build_bound_mesh(scaled, triangles, constrained, options.weights, stiffness,
+                                options.volume == Volume::Infill ? &infill : nullptr);
   next->bind_stats.mesh_ms = ms_since(start);
   next->triangles.resize(triangles.rows(), 3);
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)
@@ -383,6 +395,7 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
   next->coupled.assign(3 * nf, 0.0);
   next->rhs.assign(3 * nf, 0.0);
   next->work.assign(3 * nf, 0.0);
+  if (options.volume == Volume::Infill) next->bulk.bind(next->mesh, infill, kInfillBulk);
   if (options.volume == Volume::Global) {
     next->volume.bind(next->mesh, next->triangles);
     next->mesh.report.volume_kept_components = next->volume.kept_components();
@@ -439,8 +452,8 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     stats.init_ms = ms_since(t);
 
     // Volume::Global runs on the quasi-Newton path (local/global: without its history), see volume.h.
-    const bool quasi_newton =
-        s.options.method == Method::QuasiNewton || (s.volume.active() && s.options.method == Method::LocalGlobal);
+    const bool quasi_newton = s.options.method == Method::QuasiNewton ||
+                              ((s.volume.active() || s.bulk.active()) && s.options.method == Method::LocalGlobal);
     s.qn_history = s.options.method == Method::QuasiNewton;
     double previous_energy = std::numeric_limits<double>::quiet_NaN();
     const bool resume = quasi_newton && guess == InitialGuess::WarmStart && s.qn_resumable &&
@@ -507,7 +520,8 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
   to_input(s.mesh, s.state, s.positions);
   if (s.unit != 1.0) s.positions *= s.unit;
   s.has_solution = true;
-  if (s.options.method == Method::QuasiNewton || (s.volume.active() && s.options.method == Method::LocalGlobal)) {
+  if (s.options.method == Method::QuasiNewton ||
+      ((s.volume.active() || s.bulk.active()) && s.options.method == Method::LocalGlobal)) {
     s.qn_resumable = true;
     s.qn_energy = stats.energy.empty() ? stats.initial_energy : stats.energy.back();
     s.last_targets = targets;
@@ -521,8 +535,8 @@ const Points& Solver::positions() const { return impl_->positions; }
 void Solver::set_positions(const Eigen::Ref<const Points>& positions) {
   Impl& s = *impl_;
   if (!s.bound) throw Error(ErrorCode::NotBound, "set_positions() called before bind()");
-  if (positions.rows() != s.mesh.n)
-    throw Error(ErrorCode::InvalidInput, "expected " + std::to_string(s.mesh.n) + " positions, got " +
+  if (positions.rows() != s.mesh.input_n)
+    throw Error(ErrorCode::InvalidInput, "expected " + std::to_string(s.mesh.input_n) + " positions, got " +
                                              std::to_string(positions.rows()));
   if (!positions.allFinite()) throw Error(ErrorCode::NonFinite, "positions contain NaN or Inf");
   s.positions = positions;
@@ -535,7 +549,7 @@ void Solver::set_positions(const Eigen::Ref<const Points>& positions) {
 Options& Solver::options() { return impl_->options; }
 const Options& Solver::options() const { return impl_->options; }
 bool Solver::is_bound() const { return impl_->bound; }
-int Solver::vertex_count() const { return impl_->mesh.n; }
+int Solver::vertex_count() const { return impl_->mesh.input_n; }
 const std::vector<int>& Solver::constrained() const { return impl_->constrained_input; }
 const MeshReport& Solver::mesh_report() const { return impl_->mesh.report; }
 double Solver::bind_ms() const { return impl_->bind_stats.total_ms; }
@@ -546,13 +560,15 @@ namespace {
 
 // Positions given in input order, moved to internal order, with the optimal
 // rotation of every cell; returns the energy. For energy() and energy_gradient().
+// Volume::Infill's lattice nodes are where `current` has them (the solver's state).
 double evaluate(const BoundMesh& m, double unit, const Eigen::Ref<const Points>& positions, int threads,
-                const char* caller, Points& P, std::vector<Eigen::Matrix3d>& R) {
-  if (positions.rows() != m.n)
-    throw Error(ErrorCode::InvalidInput, std::string(caller) + ": expected " + std::to_string(m.n) +
+                const char* caller, const Points& current, Points& P, std::vector<Eigen::Matrix3d>& R) {
+  if (positions.rows() != m.input_n)
+    throw Error(ErrorCode::InvalidInput, std::string(caller) + ": expected " + std::to_string(m.input_n) +
                                              " positions, got " + std::to_string(positions.rows()));
   if (!positions.allFinite())
     throw Error(ErrorCode::NonFinite, std::string(caller) + ": positions contain NaN or Inf");
+  P = current;
   to_internal(m, positions / unit, P);
   R.resize(m.n);
   std::vector<double> cells(m.n);
@@ -566,7 +582,9 @@ double Solver::energy(const Eigen::Ref<const Points>& positions) const {
   if (!s.bound) throw Error(ErrorCode::NotBound, "energy() called before bind()");
   Points P;
   std::vector<Eigen::Matrix3d> R;
-  return energy_to_user_units(evaluate(s.mesh, s.unit, positions, s.options.threads, "energy()", P, R), s.unit);
+  double e = evaluate(s.mesh, s.unit, positions, s.options.threads, "energy()", s.state, P, R);
+  if (s.bulk.active()) e += s.bulk.energy(P.data());
+  return energy_to_user_units(e, s.unit);
 }
 
 Points Solver::energy_gradient(const Eigen::Ref<const Points>& positions) const {
@@ -574,9 +592,10 @@ Points Solver::energy_gradient(const Eigen::Ref<const Points>& positions) const 
   if (!s.bound) throw Error(ErrorCode::NotBound, "energy_gradient() called before bind()");
   Points P;
   std::vector<Eigen::Matrix3d> R;
-  evaluate(s.mesh, s.unit, positions, s.options.threads, "energy_gradient()", P, R);
+  evaluate(s.mesh, s.unit, positions, s.options.threads, "energy_gradient()", s.state, P, R);
   Points gradient(s.mesh.n, 3), gradient_input;
   arap::energy_gradient(s.mesh, P.data(), R.data(), gradient.data());
+  if (s.bulk.active()) s.bulk.add_gradient(P.data(), gradient.data());
   to_input(s.mesh, gradient, gradient_input);
   gradient_input *= s.unit;  // E = unit^2 E(p / unit): dE/dp = unit dE_internal
   if (!gradient_input.allFinite())

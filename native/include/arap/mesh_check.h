@@ -31,6 +31,9 @@ struct MeshReport {
   // oriented). Closed components with no free vertex or no volume are neither.
   int volume_kept_components = 0;
   int volume_open_components = 0;
+  // Volume::Infill: lattice cubes and their corners (solved with the mesh).
+  int infill_cells = 0;
+  int infill_nodes = 0;
 };
 
 // A triangle is degenerate when twice its area is below this fraction of the

@@ -38,8 +38,9 @@ VolumeKept volume_kept(const Eigen::Ref<const Points>& rest, const Eigen::Ref<co
 
 // Pairs of triangles that share no vertex and intersect (a crossing of edge
 // and triangle, either way round; coplanar overlaps are not counted). A grid
-// over the bounding box keeps it near-linear.
-long self_intersecting_pairs(const Eigen::Ref<const Points>& positions, const Eigen::Ref<const Triangles>& triangles);
+// over the bounding box keeps it near-linear. `list` (optional) receives the pairs.
+long self_intersecting_pairs(const Eigen::Ref<const Points>& positions, const Eigen::Ref<const Triangles>& triangles,
+                             std::vector<std::pair<int, int>>* list = nullptr);
 
 // Material cross-sections: the rest mesh is cut by `planes` planes
 // perpendicular to its principal axis (largest variance of the vertices),
