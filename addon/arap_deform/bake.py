@@ -145,14 +145,19 @@ class Baker:
             raise SetupError("'%s' has no faces: ARAP needs a surface" % obj.name)
         s = obj.arap
         self.solver = engine.native().Solver()
+        volume = engine.volume_options(s)
         self.solver.bind(self.rest64, tris, self.setup.constrained, weights=engine.WEIGHT_NAMES[s.weights],
-                         stiffness=constraints.stiffness_of(obj))
+                         stiffness=constraints.stiffness_of(obj), **volume)
         self.solver.threads = 1  # reductions in a fixed order: identical bakes
         self.solver.max_iterations = iterations or DEFAULT_ITERATIONS
         self.solver.tolerance = DEFAULT_TOLERANCE if tolerance is None else tolerance
         self.solver.anderson_window = DEFAULT_ANDERSON if anderson is None else anderson
-        # The bake keeps the method its figures were measured with (README, "Animation bake").
-        self.solver.method = "anderson" if self.solver.anderson_window > 0 else "local-global"
+        # The bake keeps the method its figures were measured with (README, "Animation bake"); the
+        # volume modes need the quasi-Newton method (Anderson's extrapolation does not see their terms).
+        if volume["volume"] != "none":
+            self.solver.method = "quasi-newton"
+        else:
+            self.solver.method = "anderson" if self.solver.anderson_window > 0 else "local-global"
         self.solver.cold_start = engine.INIT_NAMES[s.init]
         self.solver.init = "warm"
         self.rest_constrained = self.rest64[self.setup.constrained]

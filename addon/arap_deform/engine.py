@@ -18,6 +18,12 @@ from .constraints import SetupError
 WEIGHT_NAMES = {'COTAN': "cotan", 'COTAN_CLAMPED': "cotan-clamped", 'UNIFORM': "uniform"}
 INIT_NAMES = {'LAPLACIAN': "laplacian", 'DIFFERENTIAL': "differential", 'NAIVE': "naive"}
 METHOD_NAMES = {'QUASI_NEWTON': "quasi-newton", 'LOCAL_GLOBAL': "local-global", 'ANDERSON': "anderson"}
+VOLUME_NAMES = {'NONE': "none", 'GLOBAL': "global", 'INFILL': "infill"}
+
+
+def volume_options(settings):
+    """The bind arguments of the object's Volume setting (native names)."""
+    return {"volume": VOLUME_NAMES[settings.volume], "infill_resolution": settings.infill_resolution}
 
 _native = None
 
@@ -113,15 +119,18 @@ def _digest(*arrays):
     return hash(tuple(a.tobytes() for a in arrays))
 
 
-def bound_solver(obj, rest64, tris, constrained, weights, stiffness=None):
-    """(solver, bind_ms, cached) for these inputs; binds only when they changed."""
+def bound_solver(obj, rest64, tris, constrained, weights, stiffness=None, volume=None):
+    """(solver, bind_ms, cached) for these inputs; binds only when they changed.
+    volume: volume_options() (None: surface only)."""
     stiff = np.empty(0) if stiffness is None else stiffness
-    key = (obj.as_pointer(), len(rest64), _digest(rest64, tris, constrained, stiff), weights)
+    volume = volume or {}
+    key = (obj.as_pointer(), len(rest64), _digest(rest64, tris, constrained, stiff), weights,
+           tuple(sorted(volume.items())))
     hit = _cache.get(obj.as_pointer())
     if hit is not None and hit[0] == key:
         return hit[1], 0.0, True
     solver = native().Solver()
-    solver.bind(rest64, tris, constrained, weights=weights, stiffness=stiffness)
+    solver.bind(rest64, tris, constrained, weights=weights, stiffness=stiffness, **volume)
     _cache[obj.as_pointer()] = (key, solver)
     while len(_cache) > _CACHE_SIZE:
         _cache.pop(next(iter(_cache)))
@@ -140,6 +149,19 @@ def unconstrained_warning(report):
         return None
     return ("%d vertices in %d part(s) have no fixed or handle vertex: they keep their rest shape"
             % (report["unconstrained_vertices"], n))
+
+
+def volume_warning(report, volume):
+    """Volume Global keeps closed parts only: say which were left alone."""
+    if volume.get("volume") != "global":
+        return None
+    n = report["volume_open_components"]
+    if n == 0:
+        return None
+    if report["volume_kept_components"] == 0:
+        return ("Volume Global keeps nothing here: the mesh has no closed part (%d open); try Volume Infill" % n)
+    return ("Volume Global keeps the volume of %d closed part(s); %d open part(s) are left as they are"
+            % (report["volume_kept_components"], n))
 
 
 def unconverged_warning(stats, max_iterations, tolerance):
@@ -176,6 +198,7 @@ class Problem:
         self.targets = np.empty_like(self.rest_constrained)
         self.weights = WEIGHT_NAMES[s.weights]
         self.stiffness = constraints.stiffness_of(obj)
+        self.volume = volume_options(s)
 
     def empty_matrices(self, scene):
         mats = []
@@ -196,7 +219,7 @@ def configured_solver(problem, settings, warm=False):
     solve() starts from the last solution, the first from the cold guess)."""
     solver = native().Solver()
     solver.bind(problem.rest64, problem.tris, problem.setup.constrained, weights=problem.weights,
-                stiffness=problem.stiffness)
+                stiffness=problem.stiffness, **problem.volume)
     solver.max_iterations = settings.iterations
     solver.tolerance = settings.tolerance
     solver.method = METHOD_NAMES[settings.method]
@@ -235,7 +258,7 @@ def deform(obj, scene=None, iterations=None, tolerance=None, init=None):
     targets = problem.compute_targets(obj, scene)
     s = obj.arap
     solver, bind_ms, cached = bound_solver(obj, problem.rest64, problem.tris, problem.setup.constrained,
-                                           problem.weights, problem.stiffness)
+                                           problem.weights, problem.stiffness, problem.volume)
     solver.max_iterations = iterations if iterations else s.iterations
     solver.tolerance = s.tolerance if tolerance is None else tolerance
     solver.init = INIT_NAMES[init or s.init]
@@ -255,7 +278,8 @@ def deform(obj, scene=None, iterations=None, tolerance=None, init=None):
     t3 = time.perf_counter()
     report = solver.mesh_report()
     warnings = list(problem.setup.warnings)
-    for w in (unconstrained_warning(report), collapsed_handles_warning(problem, obj, scene),
+    for w in (unconstrained_warning(report), volume_warning(report, problem.volume),
+              collapsed_handles_warning(problem, obj, scene),
               unconverged_warning(stats, solver.max_iterations, solver.tolerance)):
         if w:
             warnings.append(w)
@@ -385,7 +409,7 @@ class LiveSession:
         s = obj.arap
         self.solver = native().Solver()
         self.solver.bind(self.problem.rest64, self.problem.tris, self.problem.setup.constrained,
-                         weights=self.problem.weights, stiffness=self.problem.stiffness)
+                         weights=self.problem.weights, stiffness=self.problem.stiffness, **self.problem.volume)
         self.bind_ms = self.solver.bind_ms
         self.solver.max_iterations = iterations or s.live_iterations
         self.solver.tolerance = s.tolerance
@@ -400,9 +424,10 @@ class LiveSession:
         self.write_enabled = write
         self.output = meshio.Output(obj, self.problem.output)
         self.warnings = list(self.problem.setup.warnings)
-        w = unconstrained_warning(self.solver.mesh_report())
-        if w:
-            self.warnings.append(w)
+        for w in (unconstrained_warning(self.solver.mesh_report()),
+                  volume_warning(self.solver.mesh_report(), self.problem.volume)):
+            if w:
+                self.warnings.append(w)
         self.last = None
         self.active = True
         # Set by the panel's Apply/Cancel buttons; the modal operator acts on it.

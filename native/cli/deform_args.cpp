@@ -60,7 +60,7 @@ Solver options (the defaults solve until the pose has settled):
                                   as-rigid-as-possible with the surface bound
                                   to it: keeps local volume and cross-sections,
                                   on any mesh (open ones too)
-  --infill-resolution N lattice cells along the mesh's longest side (default 12)
+  --infill-resolution N lattice cells along the mesh's longest side (default 10)
   The textbook iteration of the paper, e.g. to compare energies with other
   implementations: --method local-global --iterations N --tolerance 0.
 

@@ -89,8 +89,7 @@ Parts split_parts(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
 // (|winding number| >= 1/2), then the cubes holding a vertex with no inside
 // cube among its 27 neighbours (thin parts and open sheets get a lattice of
 // their own surface cubes). Sorted: the same lattice on every run.
-std::vector<Eigen::Vector3i> part_cells(const Grid& grid, const Eigen::Ref<const Points>& rest,
-                                        const Eigen::Ref<const Triangles>& triangles, const std::vector<int>& faces,
+std::vector<Eigen::Vector3i> part_cells(const Grid& grid, const WindingNumber& winding,
                                         const std::vector<Eigen::Vector3i>& vertex_cells, long& budget) {
   Eigen::Vector3i lo = grid.dims, hi = Eigen::Vector3i::Constant(-1);
   for (const Eigen::Vector3i& c : vertex_cells) lo = lo.cwiseMin(c), hi = hi.cwiseMax(c);
@@ -98,7 +97,6 @@ std::vector<Eigen::Vector3i> part_cells(const Grid& grid, const Eigen::Ref<const
   if (budget < 0)
     throw Error(ErrorCode::InvalidInput, "the infill lattice would have more than " + std::to_string(kMaxCells) +
                                              " cubes: lower the infill resolution");
-  const WindingNumber winding(rest, triangles, faces);
   std::unordered_map<CellKey, bool> inside;
   for (int i = lo.x(); i <= hi.x(); ++i)
     for (int j = lo.y(); j <= hi.y(); ++j)
@@ -149,35 +147,54 @@ InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<
     const std::vector<int>& members = parts.vertices[part];
     std::vector<Eigen::Vector3i> vertex_cells;
     for (int v : members) vertex_cells.push_back(grid.cell_of(rest.row(v).transpose()));
-    const std::vector<Eigen::Vector3i> cells = part_cells(grid, rest, triangles, parts.faces[part], vertex_cells, budget);
-    std::unordered_map<CellKey, char> active;
-    for (const Eigen::Vector3i& c : cells) active.emplace(key_of(c), 1);
+    const WindingNumber winding(rest, triangles, parts.faces[part]);
+    const std::vector<Eigen::Vector3i> cells = part_cells(grid, winding, vertex_cells, budget);
+    std::unordered_map<CellKey, int> active;  // cell -> index in `cells`
+    for (size_t i = 0; i < cells.size(); ++i) active.emplace(key_of(cells[i]), static_cast<int>(i));
 
-    // Corners of the cubes: this part's nodes, and the 12 edges of every cube (corners one bit apart).
-    std::unordered_map<CellKey, int> node_of;
-    auto corner_node = [&](const Eigen::Vector3i& corner) {
-      const auto [it, inserted] = node_of.emplace(key_of(corner), static_cast<int>(nodes.size()));
-      if (inserted) nodes.push_back(grid.corner(corner));
-      return it->second;
+    // Two cubes side by side share their corners only when the centre of the face between
+    // them is inside: the lattice follows the inside of the part, and two limbs closer than
+    // a cube (each in cubes of its own) stay apart (cf. Rivers & James, who split voxels so).
+    // Corner q of cube i is 8 i + q; shared corners are merged (union-find) into nodes.
+    std::vector<int> parent(8 * cells.size());
+    std::iota(parent.begin(), parent.end(), 0);
+    for (size_t i = 0; i < cells.size(); ++i)
+      for (int axis = 0; axis < 3; ++axis) {
+        Eigen::Vector3i next = cells[i];
+        ++next[axis];
+        const auto it = active.find(key_of(next));
+        if (it == active.end()) continue;
+        Eigen::Vector3d face = grid.corner(next) + Eigen::Vector3d::Constant(0.5 * grid.h);
+        face[axis] -= 0.5 * grid.h;
+        if (!(std::abs(winding(face)) >= 0.5)) continue;
+        const int bit = 1 << axis;
+        for (int q = 0; q < 8; ++q)
+          if (q & bit) parent[find_root(parent, 8 * static_cast<int>(i) + q)] = find_root(parent, 8 * it->second + (q ^ bit));
+      }
+    std::vector<int> node_of(8 * cells.size(), -1);  // corner slot -> node
+    auto node = [&](int i, int q) {
+      const int root = find_root(parent, 8 * i + q);
+      if (node_of[root] < 0) {
+        node_of[root] = static_cast<int>(nodes.size());
+        nodes.push_back(grid.corner(cells[i] + Eigen::Vector3i(q & 1, (q >> 1) & 1, (q >> 2) & 1)));
+        out.neighbors.push_back({-1, -1, -1, -1, -1, -1});
+      }
+      return node_of[root];
     };
-    for (const Eigen::Vector3i& cell : cells) {
+    // The 12 edges of every cube (corners one bit apart), and each node's neighbours along the axes.
+    for (size_t i = 0; i < cells.size(); ++i) {
       int corner[8];
-      for (int q = 0; q < 8; ++q) corner[q] = corner_node(cell + Eigen::Vector3i(q & 1, (q >> 1) & 1, (q >> 2) & 1));
+      for (int q = 0; q < 8; ++q) corner[q] = node(static_cast<int>(i), q);
       for (int q = 0; q < 8; ++q)
-        for (int bit = 1; bit < 8; bit <<= 1)
-          if (!(q & bit)) lattice_edges[pair_key(corner[q], corner[q | bit])] += edge_weight;
+        for (int axis = 0; axis < 3; ++axis)
+          if (!(q & (1 << axis))) {
+            const int a = corner[q], b = corner[q | (1 << axis)];
+            lattice_edges[pair_key(a, b)] += edge_weight;
+            out.neighbors[a][2 * axis + 1] = b;
+            out.neighbors[b][2 * axis] = a;
+          }
       ++out.cells;
     }
-    // Each node's neighbours along the axes (for the bulk term).
-    out.neighbors.resize(nodes.size());
-    for (const auto& [key, node] : node_of)
-      for (int slot = 0; slot < 6; ++slot) {
-        Eigen::Vector3i next = cell_of_key(key);
-        next[slot / 2] += slot % 2 ? 1 : -1;
-        const auto it = node_of.find(key_of(next));
-        const bool joined = it != node_of.end() && lattice_edges.count(pair_key(node, it->second));
-        out.neighbors[node][slot] = joined ? it->second : -1;
-      }
     // Each vertex to the 4 corners of the Kuhn tetrahedron of its cube that
     // holds it (the cube split along its main diagonal, by the order of the
     // local coordinates), with its barycentric weights. A vertex whose own
@@ -187,27 +204,28 @@ InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<
       const int v = members[index];
       if (!(parts.vertex_area[v] > 0)) continue;
       const Eigen::Vector3d p = rest.row(v).transpose();
-      Eigen::Vector3i cell = vertex_cells[index];
-      if (!active.count(key_of(cell))) {
+      auto found = active.find(key_of(vertex_cells[index]));
+      if (found == active.end()) {
         double best = INFINITY;
         for (int q = 0; q < 27; ++q) {
-          const Eigen::Vector3i next = vertex_cells[index] + offset(q);
-          if (!active.count(key_of(next))) continue;
-          const Eigen::Vector3d box = grid.corner(next);
+          const auto it = active.find(key_of(vertex_cells[index] + offset(q)));
+          if (it == active.end()) continue;
+          const Eigen::Vector3d box = grid.corner(cells[it->second]);
           const double d = (p - p.cwiseMax(box).cwiseMin(box + Eigen::Vector3d::Constant(grid.h))).squaredNorm();
-          if (d < best) best = d, cell = next;
+          if (d < best) best = d, found = it;
         }
       }
+      const int cube = found->second;
+      const Eigen::Vector3i cell = cells[cube];
       const Eigen::Vector3d t = ((p - grid.origin) / grid.h - cell.cast<double>()).cwiseMax(0.0).cwiseMin(1.0);
       int axis[3] = {0, 1, 2};
       std::sort(axis, axis + 3, [&](int x, int y) { return t[x] > t[y]; });
       const double weights[4] = {1 - t[axis[0]], t[axis[0]] - t[axis[1]], t[axis[1]] - t[axis[2]], t[axis[2]]};
-      Eigen::Vector3i corner = Eigen::Vector3i::Zero();
+      int corner = 0;
       for (int k = 0; k < 4; ++k) {
-        if (k > 0) corner[axis[k - 1]] = 1;
+        if (k > 0) corner |= 1 << axis[k - 1];
         if (weights[k] < 1e-9) continue;
-        const int node = node_of.at(key_of(cell + corner));
-        out.edges.push_back({v, n + node, coupling * parts.vertex_area[v] * weights[k]});
+        out.edges.push_back({v, n + node(cube, corner), coupling * parts.vertex_area[v] * weights[k]});
       }
     }
   }

@@ -56,7 +56,7 @@ struct Options {
   // Needs a bind (like `weights`). Volume::Global works with the quasi-Newton and local/global methods.
   Volume volume = Volume::None;
   // Volume::Infill: lattice cells along the longest side of the mesh's bounding box (2..256).
-  int infill_resolution = 12;
+  int infill_resolution = 10;
 };
 
 // Parse / print the names used on the command line and in Python ("cotan-clamped").
