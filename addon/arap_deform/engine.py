@@ -382,6 +382,10 @@ class LiveSession:
         self.topology = meshio.Topology(obj.data)
         self._next_topology_check = time.monotonic() + TOPOLOGY_CHECK_S
         self.snapshot = meshio.Snapshot(obj)
+        # Cancel means the state before Live: the Empties too.
+        self.empties = meshio.TransformSnapshot(self._empties())
+        self.names = (obj.name, [h.empty.name for h in self.problem.setup.handles])
+        self.collapsed = []     # handles whose Empty is scaled to almost nothing (the operator warns)
         s = obj.arap
         self.solver = native().Solver()
         self.solver.bind(self.problem.rest64, self.problem.tris, self.problem.setup.constrained,
@@ -457,6 +461,7 @@ class LiveSession:
         if not force and self.converged and still:
             return None
         self._pose = pose
+        self.collapsed = constraints.collapsed_handles(self.problem.setup, mats)
         # While a handle moves, keep to the frame budget; once it stops, nobody waits for a
         # new frame of the handle, so the settling updates may take a few times longer.
         self.solver.time_budget_ms = self.frame_ms * (SETTLE_BUDGET_FACTOR if still else 1.0)
@@ -478,12 +483,49 @@ class LiveSession:
         """The current solution, flat float32 (3n), object-local."""
         return self.buffer
 
+    def _empties(self):
+        return [h.empty for h in self.problem.setup.handles]
+
+    def references_lost(self):
+        """True when Blender replaced the objects this session holds (an undo
+        reloads them): the session must find them again (reattach)."""
+        try:
+            self.obj.name
+            for empty in self._empties():
+                empty.name
+        except ReferenceError:
+            return True
+        return False
+
+    def reattach(self, objects, scene=None):
+        """After an undo: find the posed object and the handle Empties again by
+        name in `objects` (bpy.data.objects; `scene`: the current scene) and go
+        on posing the restored handles. Raises SessionError when they are gone
+        or the mesh changed."""
+        obj_name, empty_names = self.names
+        if self.scene is not None:
+            self.scene = scene
+        obj = objects.get(obj_name)
+        empties = [objects.get(name) for name in empty_names]
+        if obj is None or obj.type != 'MESH' or any(e is None for e in empties):
+            raise SessionError("Undo removed the posed object or a handle Empty: Live stopped", 'OBJECT')
+        self.obj = obj
+        self.snapshot.obj = obj
+        self.output.obj = obj
+        for handle, empty in zip(self.problem.setup.handles, empties):
+            handle.empty = empty
+        self._pose = None    # solve for the restored handles
+        self.converged = False
+        self.check(full=True)
+
     def cancel(self):
-        """Restore the mesh exactly as it was when the session started."""
+        """Restore the mesh and the handle Empties exactly as they were when the session started."""
         if self.active:
             self.active = False
             _sessions.discard(self)
             self.snapshot.restore()
+            self.empties.restore(bpy.data.objects)
+            sync_matrices()
 
     def finish(self):
         """Keep the current result. Raises SessionError (and stops without
