@@ -48,8 +48,6 @@ class AutoPoser:
     def __init__(self, obj, scene):
         self.problem = engine.Problem(obj, scene)
         self.solver = engine.configured_solver(self.problem, obj.arap, warm=True)
-        # Each pose is solved as far as a bake solves its frames: Auto's frames and a bake's agree.
-        self.solver.tolerance = min(obj.arap.tolerance, bake.DEFAULT_TOLERANCE)
         self.output = meshio.Output(obj, self.problem.output)
         self.fingerprint = engine.topology_counts(obj.data)
         self.buffer = np.empty(len(self.problem.rest32), np.float32)
