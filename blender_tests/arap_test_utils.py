@@ -140,6 +140,13 @@ def triangles(obj):
     return t.reshape(-1, 3)
 
 
+def transform_channels(ob):
+    """Every transform channel of `ob` as plain tuples (to compare bit for bit)."""
+    names = ("location", "rotation_mode", "rotation_euler", "rotation_quaternion", "rotation_axis_angle", "scale",
+             "delta_location", "delta_rotation_euler", "delta_rotation_quaternion", "delta_scale")
+    return {n: (getattr(ob, n) if isinstance(getattr(ob, n), str) else tuple(getattr(ob, n))) for n in names}
+
+
 def np_matrix(m):
     return np.array([tuple(r) for r in m], np.float64)
 

@@ -195,6 +195,40 @@ class Deform(unittest.TestCase):
         api.deform(obj)
         self.assertGreater(len(U.evaluated_coords(obj)), len(obj.data.vertices))
 
+    def test_defaults_converge_on_varied_meshes(self):
+        # What a script gets from api.deform(obj) with nothing set: a settled pose
+        # (result.converged) on meshes of different kinds, each pulled hard.
+        def sphere():
+            bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=1.0)
+            return bpy.context.active_object
+
+        def grid():
+            return U.add_grid(x=40, y=12, size=4.0)
+
+        def monkey():
+            bpy.ops.mesh.primitive_monkey_add()
+            bpy.ops.object.modifier_add(type='SUBSURF')
+            bpy.ops.object.modifier_apply(modifier="Subdivision")
+            return bpy.context.active_object
+
+        for make in (U.add_cylinder, sphere, grid, monkey):
+            U.clear_scene()
+            obj = make()
+            co = U.coords(obj)
+            axis = int(np.argmax(np.ptp(co, axis=0)))
+            low, high = co[:, axis].min(), co[:, axis].max()
+            span = high - low
+            api.create_group(obj, "low", np.flatnonzero(co[:, axis] < low + 0.1 * span))
+            api.create_group(obj, "high", np.flatnonzero(co[:, axis] > high - 0.1 * span))
+            api.set_fixed(obj, "low")
+            empty = U.add_empty("Pull")
+            api.add_handle(obj, "high", empty)
+            empty.location = (0.3 * span, 0.2 * span, 0.1 * span)
+            result = api.deform(obj)
+            with self.subTest(mesh=make.__name__, vertices=len(co)):
+                self.assertTrue(result.converged, "%d iterations" % result.iterations)
+                self.assertFalse(any("had not settled" in w for w in result.warnings))
+
     def test_result_is_stationary_point(self):
         obj, empty, fixed, top = U.bar_with_handle()
         bind = empty.matrix_world.copy()

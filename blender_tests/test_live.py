@@ -32,6 +32,74 @@ class Live(unittest.TestCase):
         self.assertIsNone(engine.session_for(self.obj))
         self.assertNotIn("arap_rest", self.obj.data.attributes)
 
+    def test_cancel_restores_the_empties_bit_for_bit(self):
+        # Cancel means the state before Live: the handle Empties too, every channel exactly.
+        self.empty.rotation_mode = 'XYZ'
+        self.empty.rotation_euler = (0.1, 0.2, 0.3)
+        self.empty.scale = (1.1, 0.9, 1.0)
+        bpy.context.view_layer.update()
+        channels = U.transform_channels(self.empty)
+        s = api.start_session(self.obj, bpy.context.scene)
+        self.empty.location.x += 0.37
+        self.empty.rotation_euler.z += 0.5
+        self.empty.scale = (2.0, 2.0, 2.0)
+        self.empty.rotation_mode = 'QUATERNION'
+        s.step()
+        s.cancel()
+        self.assertEqual(U.transform_channels(self.empty), channels)
+
+    def test_status_bar_text_while_live_runs(self):
+        from arap_deform import operators
+        self.assertEqual(operators.live_status_text(), "")
+        s = api.start_session(self.obj, bpy.context.scene)
+        s.step()
+        text = operators.live_status_text()
+        self.assertIn("ARAP Live on 'Bar'", text)
+        self.assertIn("Esc: cancel", text)
+        self.assertNotIn("right-click", text)
+        s.cancel()
+        self.assertEqual(operators.live_status_text(), "")
+
+    def test_an_empty_scaled_to_nothing_is_reported(self):
+        s = api.start_session(self.obj, bpy.context.scene)
+        self.empty.scale = (0.0, 0.0, 0.0)
+        s.step()
+        self.assertEqual(s.collapsed, ["top"])
+        self.empty.scale = (1.0, 1.0, 1.0)
+        s.step()
+        self.assertEqual(s.collapsed, [])
+        s.cancel()
+
+    def test_undo_during_live_poses_the_restored_handles(self):
+        # Ctrl+Z while Live runs: Blender reloads the objects as the previous undo
+        # step had them; the session finds them again and poses the restored handles.
+        rest = U.raw_coords(self.obj).copy()
+        start = self.empty.matrix_world.copy()
+        bpy.ops.ed.undo_push(message="set-up")
+        s = api.start_session(self.obj, bpy.context.scene)
+        move(self.empty, dx=0.4)
+        s.step()
+        bpy.ops.ed.undo_push(message="first move")
+        first = self.empty.matrix_world.copy()
+        move(self.empty, dx=0.5)
+        s.step()
+        bpy.ops.ed.undo_push(message="second move")
+        bpy.ops.ed.undo()
+        self.assertTrue(s.references_lost())
+        s.reattach(bpy.data.objects, bpy.context.scene)
+        self.assertFalse(s.references_lost())
+        for _ in range(100):
+            if s.step(force=False) is None:
+                break
+        obj, empty = bpy.data.objects["Bar"], bpy.data.objects["TopEmpty"]
+        np.testing.assert_allclose(U.np_matrix(empty.matrix_world), U.np_matrix(first), atol=1e-6)
+        moved = U.coords(obj)[self.top] - rest.reshape(-1, 3)[self.top]
+        np.testing.assert_allclose(moved, np.tile((0.4, 0, 0), (len(self.top), 1)), atol=1e-5)
+        s.cancel()   # and Cancel still brings back the state before Live
+        np.testing.assert_array_equal(U.raw_coords(obj), rest)
+        np.testing.assert_allclose(U.np_matrix(empty.matrix_world), U.np_matrix(start), atol=1e-6)
+        self.assertIsNone(engine.session_for(obj))
+
     def test_cancel_restores_shape_keys(self):
         self.obj.shape_key_add(name="Basis")
         s = api.start_session(self.obj, bpy.context.scene)
@@ -95,7 +163,8 @@ class Live(unittest.TestCase):
         self.assertTrue(np.array_equal(U.raw_coords(self.obj), settled))
         # The settled pose is the converged one-shot solve of the same pose.
         live = U.coords(self.obj).copy()
-        s.cancel()
+        s.cancel()   # (puts the Empty back too)
+        move(self.empty, dx=0.5, dz=-0.3)
         api.deform(self.obj, tolerance=1e-9)
         np.testing.assert_allclose(live, U.coords(self.obj), atol=2e-3)
         # A move wakes it up again.

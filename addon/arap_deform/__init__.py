@@ -59,6 +59,7 @@ def unregister():
     from . import engine
     engine.stop_all_sessions()
     engine.clear_cache()
+    operators.live_status_off()
     for mod in reversed(_modules):
         mod.unregister()
     for name, module in _script_aliases().items():

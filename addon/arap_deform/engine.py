@@ -25,6 +25,21 @@ def volume_options(settings):
     """The bind arguments of the object's Volume setting (native names)."""
     return {"volume": VOLUME_NAMES[settings.volume], "infill_resolution": settings.infill_resolution}
 
+
+def solver_method(settings):
+    """The native method for the object's settings: its Method, except that Anderson's extrapolated points
+    are not checked against the volume terms, so with Volume on it falls back to Quasi-Newton
+    (method_warning() says so)."""
+    if settings.volume != 'NONE' and settings.method == 'ANDERSON':
+        return METHOD_NAMES['QUASI_NEWTON']
+    return METHOD_NAMES[settings.method]
+
+
+def method_warning(settings):
+    if settings.volume != 'NONE' and settings.method == 'ANDERSON':
+        return "Volume %s needs Quasi-Newton or Local/Global: solved with Quasi-Newton" % settings.volume.title()
+    return None
+
 _native = None
 
 
@@ -222,7 +237,7 @@ def configured_solver(problem, settings, warm=False):
                 stiffness=problem.stiffness, **problem.volume)
     solver.max_iterations = settings.iterations
     solver.tolerance = settings.tolerance
-    solver.method = METHOD_NAMES[settings.method]
+    solver.method = solver_method(settings)
     solver.anderson_window = settings.acceleration
     solver.threads = settings.threads
     if warm:
@@ -262,7 +277,7 @@ def deform(obj, scene=None, iterations=None, tolerance=None, init=None):
     solver.max_iterations = iterations if iterations else s.iterations
     solver.tolerance = s.tolerance if tolerance is None else tolerance
     solver.init = INIT_NAMES[init or s.init]
-    solver.method = METHOD_NAMES[s.method]
+    solver.method = solver_method(s)
     solver.anderson_window = s.acceleration
     solver.time_budget_ms = 0.0
     solver.threads = s.threads
@@ -278,7 +293,7 @@ def deform(obj, scene=None, iterations=None, tolerance=None, init=None):
     t3 = time.perf_counter()
     report = solver.mesh_report()
     warnings = list(problem.setup.warnings)
-    for w in (unconstrained_warning(report), volume_warning(report, problem.volume),
+    for w in (unconstrained_warning(report), volume_warning(report, problem.volume), method_warning(s),
               collapsed_handles_warning(problem, obj, scene),
               unconverged_warning(stats, solver.max_iterations, solver.tolerance)):
         if w:
@@ -406,6 +421,10 @@ class LiveSession:
         self.topology = meshio.Topology(obj.data)
         self._next_topology_check = time.monotonic() + TOPOLOGY_CHECK_S
         self.snapshot = meshio.Snapshot(obj)
+        # Cancel means the state before Live: the Empties too.
+        self.empties = meshio.TransformSnapshot(self._empties())
+        self.names = (obj.name, [h.empty.name for h in self.problem.setup.handles])
+        self.collapsed = []     # handles whose Empty is scaled to almost nothing (the operator warns)
         s = obj.arap
         self.solver = native().Solver()
         self.solver.bind(self.problem.rest64, self.problem.tris, self.problem.setup.constrained,
@@ -415,7 +434,7 @@ class LiveSession:
         self.solver.tolerance = s.tolerance
         self.solver.cold_start = INIT_NAMES[s.init]
         self.solver.init = "warm"
-        self.solver.method = METHOD_NAMES[s.method]
+        self.solver.method = solver_method(s)
         self.solver.anderson_window = s.acceleration
         self.frame_ms = s.live_frame_ms
         self.solver.time_budget_ms = self.frame_ms
@@ -425,7 +444,7 @@ class LiveSession:
         self.output = meshio.Output(obj, self.problem.output)
         self.warnings = list(self.problem.setup.warnings)
         for w in (unconstrained_warning(self.solver.mesh_report()),
-                  volume_warning(self.solver.mesh_report(), self.problem.volume)):
+                  volume_warning(self.solver.mesh_report(), self.problem.volume), method_warning(s)):
             if w:
                 self.warnings.append(w)
         self.last = None
@@ -482,6 +501,7 @@ class LiveSession:
         if not force and self.converged and still:
             return None
         self._pose = pose
+        self.collapsed = constraints.collapsed_handles(self.problem.setup, mats)
         # While a handle moves, keep to the frame budget; once it stops, nobody waits for a
         # new frame of the handle, so the settling updates may take a few times longer.
         self.solver.time_budget_ms = self.frame_ms * (SETTLE_BUDGET_FACTOR if still else 1.0)
@@ -503,12 +523,49 @@ class LiveSession:
         """The current solution, flat float32 (3n), object-local."""
         return self.buffer
 
+    def _empties(self):
+        return [h.empty for h in self.problem.setup.handles]
+
+    def references_lost(self):
+        """True when Blender replaced the objects this session holds (an undo
+        reloads them): the session must find them again (reattach)."""
+        try:
+            self.obj.name
+            for empty in self._empties():
+                empty.name
+        except ReferenceError:
+            return True
+        return False
+
+    def reattach(self, objects, scene=None):
+        """After an undo: find the posed object and the handle Empties again by
+        name in `objects` (bpy.data.objects; `scene`: the current scene) and go
+        on posing the restored handles. Raises SessionError when they are gone
+        or the mesh changed."""
+        obj_name, empty_names = self.names
+        if self.scene is not None:
+            self.scene = scene
+        obj = objects.get(obj_name)
+        empties = [objects.get(name) for name in empty_names]
+        if obj is None or obj.type != 'MESH' or any(e is None for e in empties):
+            raise SessionError("Undo removed the posed object or a handle Empty: Live stopped", 'OBJECT')
+        self.obj = obj
+        self.snapshot.obj = obj
+        self.output.obj = obj
+        for handle, empty in zip(self.problem.setup.handles, empties):
+            handle.empty = empty
+        self._pose = None    # solve for the restored handles
+        self.converged = False
+        self.check(full=True)
+
     def cancel(self):
-        """Restore the mesh exactly as it was when the session started."""
+        """Restore the mesh and the handle Empties exactly as they were when the session started."""
         if self.active:
             self.active = False
             _sessions.discard(self)
             self.snapshot.restore()
+            self.empties.restore(bpy.data.objects)
+            sync_matrices()
 
     def finish(self):
         """Keep the current result. Raises SessionError (and stops without

@@ -153,6 +153,30 @@ class Output:
         self.obj.update_tag(refresh={'DATA'})
 
 
+class TransformSnapshot:
+    """The transform channels of objects (the handle Empties), to put them back
+    bit for bit: the values are copied, not a matrix recomposed."""
+
+    CHANNELS = ("location", "rotation_mode", "rotation_euler", "rotation_quaternion", "rotation_axis_angle",
+                "scale", "delta_location", "delta_rotation_euler", "delta_rotation_quaternion", "delta_scale")
+
+    def __init__(self, objects):
+        self.names = [ob.name for ob in objects]
+        self.values = [{c: _copy_channel(getattr(ob, c)) for c in self.CHANNELS} for ob in objects]
+
+    def restore(self, objects_by_name):
+        """Put the channels back on the objects of that name still there."""
+        for name, values in zip(self.names, self.values):
+            ob = objects_by_name.get(name)
+            if ob is not None:
+                for channel, value in values.items():
+                    setattr(ob, channel, value)
+
+
+def _copy_channel(value):
+    return value if isinstance(value, str) else tuple(value)
+
+
 class Snapshot:
     """Exact copy of what Deform/Live may change, to restore bit for bit."""
 

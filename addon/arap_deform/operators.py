@@ -24,12 +24,62 @@ def _report_error(op, exc):
     return {'CANCELLED'}
 
 
-def _redraw_3d_views(context):
-    """The viewport redraws on input; Live changes the mesh between inputs."""
+def _redraw_live(context):
+    """The viewport redraws on input; Live changes the mesh (and its status) between inputs."""
     screen = context.window.screen if context.window is not None else None
     for area in (screen.areas if screen is not None else ()):
-        if area.type == 'VIEW_3D':
+        if area.type in {'VIEW_3D', 'STATUSBAR'}:
             area.tag_redraw()
+
+
+def live_status_text():
+    """What the status bar shows while Live runs ('' when it does not)."""
+    session = engine.any_session()
+    if session is None or not session.active:
+        return ""
+    last = session.last
+    text = "ARAP Live on '%s': %s" % (session.names[0], "settled" if session.settled else "settling")
+    if last is not None:
+        text += ", %.1f ms/update (%d iterations), energy %.5g" % (last.total_ms, last.iterations, last.energy)
+    return text + " | Enter: apply, Esc: cancel"
+
+
+def _draw_live_status(self, _context):
+    # In the status bar, beside Blender's own hints: a G/R/S keeps its Dx/Dy/angle
+    # read-out in the viewport header, which Live never writes.
+    text = live_status_text()
+    if text:
+        self.layout.label(text=text, icon='PLAY')
+
+
+_status_shown = False
+
+
+def live_status_off():
+    """Take the Live status out of the status bar (the add-on is disabled)."""
+    global _status_shown
+    if _status_shown:
+        bpy.types.STATUSBAR_HT_header.remove(_draw_live_status)
+        _status_shown = False
+
+
+def _live_status(on):
+    """Show the Live status in the status bar (on), or stop when no session is left."""
+    global _status_shown
+    if on and not _status_shown:
+        bpy.types.STATUSBAR_HT_header.append(_draw_live_status)
+        _status_shown = True
+    elif not on and _status_shown and engine.any_session() is None:
+        bpy.types.STATUSBAR_HT_header.remove(_draw_live_status)
+        _status_shown = False
+
+
+def live_status_off():
+    """Take the Live status out of the status bar (the add-on is disabled)."""
+    global _status_shown
+    if _status_shown:
+        bpy.types.STATUSBAR_HT_header.remove(_draw_live_status)
+        _status_shown = False
 
 
 def _selected_vertices(obj):
@@ -244,10 +294,11 @@ class ARAP_OT_live(bpy.types.Operator):
         super().__init__(*args, **kwargs)
         self._session = None
         self._timer = None
+        self._collapsed = []
 
     def invoke(self, context, event):
-        obj = context.active_object
-        if obj is not None and obj.type == 'MESH' and engine.session_for(obj) is not None:
+        obj = engine.target_mesh(context)
+        if obj is not None and engine.session_for(obj) is not None:
             self.report({'ERROR'}, "Live is already running on '%s'" % obj.name)
             return {'CANCELLED'}
         try:
@@ -264,7 +315,7 @@ class ARAP_OT_live(bpy.types.Operator):
         wm = context.window_manager
         self._timer = wm.event_timer_add(obj.arap.live_interval, window=context.window)
         wm.modal_handler_add(self)
-        self._header(context)
+        _live_status(True)
         return {'RUNNING_MODAL'}
 
     def execute(self, context):
@@ -284,40 +335,51 @@ class ARAP_OT_live(bpy.types.Operator):
         session = self._session
         if session.request == 'APPLY' or (event.type in {'RET', 'NUMPAD_ENTER'} and event.value == 'PRESS'):
             return self._end(context, apply=True)
-        if session.request == 'CANCEL' or (event.type in {'ESC', 'RIGHTMOUSE'} and event.value == 'PRESS'):
+        # Only Esc (or the panel's Cancel) throws the pose away: right-click belongs to
+        # Blender (it cancels a running G/R/S, or opens a context menu).
+        if session.request == 'CANCEL' or (event.type == 'ESC' and event.value == 'PRESS'):
             return self._end(context, apply=False)
         if event.type == 'TIMER':
             try:
+                if session.references_lost():
+                    # Ctrl+Z went back one step (Blender reloaded the objects): pose the
+                    # handles as that step had them and go on.
+                    session.reattach(bpy.data.objects, context.scene)
+                    self.report({'INFO'}, "Undo: the handles went back one step; Live goes on (Esc cancels)")
                 if session.step(force=False) is not None:
-                    self._header(context)
-                    _redraw_3d_views(context)
+                    self._warn_collapsed(session)
+                    _redraw_live(context)
             except engine.SessionError as exc:
                 return self._end(context, apply=False, error=exc)
         return {'PASS_THROUGH'}
+
+    def _warn_collapsed(self, session):
+        if session.collapsed != self._collapsed:
+            self._collapsed = session.collapsed
+            if session.collapsed:
+                self.report({'WARNING'}, "The Empty of handle %s is scaled to almost nothing: its vertices collapse "
+                            "to a point" % ", ".join("'%s'" % n for n in session.collapsed))
 
     def cancel(self, context):
         # Blender calls this when the modal is aborted (file load, window closed).
         if self._session is not None and self._session.active:
             self._cleanup(context)
             self._session.cancel()
-
-    def _header(self, context):
-        last = self._session.last
-        if context.area is not None and last is not None:
-            context.area.header_text_set(
-                "ARAP Live (%s): %.1f ms/frame (solve %.1f ms, %d iterations), energy %.6g | Enter: apply, "
-                "Esc/right-click: cancel"
-                % ("settled" if self._session.settled else "settling", last.total_ms, last.solve_ms,
-                   last.iterations, last.energy))
+        _live_status(False)
 
     def _cleanup(self, context):
         if self._timer is not None:
             context.window_manager.event_timer_remove(self._timer)
             self._timer = None
-        if context.area is not None:
-            context.area.header_text_set(None)
 
     def _end(self, context, apply, error=None):
+        try:
+            return self._end_session(context, apply, error)
+        finally:
+            _live_status(False)
+            _redraw_live(context)
+
+    def _end_session(self, context, apply, error):
         self._cleanup(context)
         session = self._session
         if apply:

@@ -170,7 +170,7 @@ class ARAP_PG_settings(PropertyGroup):
     volume: EnumProperty(
         name="Volume", description="What keeps thick parts from folding flat and losing volume where they bend "
         "(README, \"Keeping the volume\"). Global and Infill work with the Quasi-Newton and Local/Global methods",
-        items=VOLUME_ITEMS, default='GLOBAL',
+        items=VOLUME_ITEMS, default='NONE',
     )
     infill_resolution: IntProperty(
         name="Infill Resolution",

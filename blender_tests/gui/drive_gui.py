@@ -154,14 +154,41 @@ def run(gui):
     if not s2.get("live_running"):
         raise Fail("Live stopped after the move")
     gui.shot("02_after_move.png")
+    if "Esc: cancel" not in s2.get("live_status", ""):
+        raise Fail("the status bar does not show Live's state: %r" % s2.get("live_status"))
 
-    gui.xdo("mousemove", *map(str, s1["viewport_centre"]))
+    # Right-click belongs to Blender (here: the object context menu), it does not cancel Live.
+    cx, cy = s1["viewport_centre"]
+    gui.xdo("mousemove", str(cx), str(cy))
+    gui.xdo("click", "3")
+    gui.settle(3)
+    gui.shot("02b_right_click_menu.png")
+    gui.xdo("mousemove", str(max(5, cx - 400)), str(cy + 300))  # a menu closes when the pointer leaves it
+    if not gui.settle(5).get("live_running"):
+        raise Fail("right-click cancelled Live")
+    print("right-click left Live running")
+
+    # Ctrl+Z undoes the last move: the Empty goes back and Live goes on posing it.
+    gui.xdo("mousemove", str(cx), str(cy))
+    gui.xdo("key", "ctrl+z")
+    gui.wait("Ctrl+Z to take the Empty back while Live goes on",
+             lambda s: s.get("live_running") and moved(s["empty_location"], s0["empty_location"]) < 1e-6
+             and moved(offset(s), offset(s0)) < 0.02)
+    print("Ctrl+Z during Live took the last move back; Live goes on")
+    gui.command("cmd_select_empty")   # the undo step had the bar selected, as the set-up left it
+    gui.wait("the Empty selected again", lambda s: s.get("active") == "TopEmpty")
+    gui.drag_with_g(s1["viewport_centre"], 50, 30,
+                    lambda s: moved(s["top_centroid"], s0["top_centroid"]) > 0.05)
+
+    gui.xdo("mousemove", str(cx), str(cy))
     gui.xdo("key", "Escape")
     gui.wait("Esc to cancel Live", lambda s: not s.get("live_running"))
     s3 = gui.settle()
     if s3["hash"] != s0["rest_hash"]:
         raise Fail("Esc did not restore the mesh bit for bit")
-    print("Esc restored the mesh exactly")
+    if s3["empty_location"] != s0["empty_location"]:
+        raise Fail("Esc did not put the Empty back: %s, was %s" % (s3["empty_location"], s0["empty_location"]))
+    print("Esc restored the mesh and the Empty exactly")
     gui.shot("03_after_cancel.png")
 
     # Apply with Enter, then Ctrl+Z until the empty is back: the mesh is at rest again.
@@ -175,6 +202,13 @@ def run(gui):
         raise Fail("Enter did not keep the pose")
     gui.shot("04_after_apply.png")
     print("Enter applied the pose")
+    # The Empty is still the active object: the ARAP panel stays, showing the posed mesh.
+    draws = gui.state().get("panel_draws", 0)
+    x, top = s0["sidebar_tabs"]
+    gui.xdo("mousemove", str(x - 120), str(top + 120))   # over the sidebar: it redraws
+    gui.wait("the panel to stay while the Empty is active",
+             lambda s: s.get("panel_draws", 0) > draws and s.get("panel_active") == "TopEmpty")
+    print("the ARAP panel stays with the Empty active")
     # Each G move made while Live ran is its own undo step (Blender's transform
     # pushes it, with the mesh as Live had it then); the set-up is the step before.
     undos = 0

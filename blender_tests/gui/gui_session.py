@@ -5,7 +5,7 @@
 # Sets up a bar (fixed bottom, handle on top driven by an empty), then talks
 # to drive_gui.py through files in <out dir>:
 #   state.json   written every 0.2 s: vertex hash, top centroid, empty location, Live state, viewport centre
-#   cmd_*        commands from the driver: cmd_live (start Live), cmd_auto (Auto mode on), cmd_animate
+#   cmd_*        commands from the driver: cmd_live (start Live), cmd_select_empty, cmd_auto (Auto mode on), cmd_animate
 #                (keyframe the Empty), cmd_redo_settings, cmd_screenshot, cmd_quit
 import hashlib
 import json
@@ -83,8 +83,10 @@ def setup():
     STATE["ready"] = True
 
 
-def panel_drawn(_panel, _context):
+def panel_drawn(_panel, context):
     STATE["panel_drawn"] = True
+    STATE["panel_draws"] = STATE.get("panel_draws", 0) + 1
+    STATE["panel_active"] = context.active_object.name if context.active_object else None
 
 
 def coords_hash(obj):
@@ -146,7 +148,7 @@ def screenshot(name):
 
 
 def write_state():
-    from arap_deform import engine
+    from arap_deform import engine, operators
     obj = bpy.data.objects.get("Bar")
     if obj is not None and STATE["ready"]:
         co = np.empty(len(obj.data.vertices) * 3, np.float32)
@@ -157,6 +159,9 @@ def write_state():
         STATE["empty_location"] = list(bpy.data.objects["TopEmpty"].matrix_world.translation)
         session = engine.session_for(obj)
         STATE["live_running"] = session is not None
+        STATE["live_status"] = operators.live_status_text()
+        active = bpy.context.view_layer.objects.active
+        STATE["active"] = active.name if active is not None else None
         win, area, region = view3d()
         STATE["auto"] = obj.arap.auto
         STATE["auto_status"] = obj.arap.auto_status
@@ -191,6 +196,8 @@ def tick():
             setup()
         if take("cmd_live"):
             start_live()
+        if take("cmd_select_empty"):
+            select_only_the_empty()
         if take("cmd_auto"):
             auto_on()
         if take("cmd_animate"):

@@ -146,6 +146,11 @@ int run(const cli::DeformArgs& args) {
   }
 
   for (const std::string& w : constraints.warnings) std::cerr << "arap-deform: " << w << '\n';
+  const MeshReport& report = solver.mesh_report();
+  if (solver.options().volume == Volume::Global && report.volume_open_components > 0)
+    std::cerr << "arap-deform: --volume global keeps the volume of " << report.volume_kept_components
+              << " closed part(s); " << report.volume_open_components
+              << " open part(s) are left as they are (--volume infill fills open parts too)\n";
   if (!stats.converged && args.options.tolerance > 0)
     std::cerr << "arap-deform: stopped at the cap of " << stats.iterations
               << " iterations before the energy settled (tolerance " << args.options.tolerance
