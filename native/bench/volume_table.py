@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Measure the volume modes (README, "Keeping the volume").
 
-    python3 native/bench/volume_table.py build ../shared/scenarios build/volume > volume.md
+    python3 native/bench/volume_table.py build ../shared/scenarios build/results/volume
 
 For every scenario of the folder (bar1_x2 and bar1_x3 are bar1 x2 and x3, so
 they are not run twice) and five procedural meshes made with arap-make-mesh
@@ -13,7 +13,7 @@ self-intersections, distortion: from the files, not from the solver). The CPU
 time per iteration is the median over --repeats runs (default 3, run in turn
 with the other modes) of the solving thread's CPU time divided by the
 iterations, so that the ratios compare runs made side by side. Writes the
-markdown table to stdout and everything to OUT/volume.json.
+markdown table to OUT/volume.md (and stdout) and everything to OUT/volume.json.
 Plain Python 3.
 """
 
@@ -190,7 +190,10 @@ def main():
         print("measured %s" % name, file=sys.stderr)
     with open(os.path.join(args.out, "volume.json"), "w") as f:
         json.dump(results, f, indent=1)
-    print(table(results))
+    markdown = table(results)
+    with open(os.path.join(args.out, "volume.md"), "w") as f:
+        f.write(markdown + "\n")
+    print(markdown)
 
 
 def table(results):

@@ -23,18 +23,11 @@ double triple(const double* a, const double* b, const double* c) {
 
 double polynomial(const double a[4], double x) { return ((a[3] * x + a[2]) * x + a[1]) * x + a[0]; }
 
-// The real root of a0 + a1 x + a2 x^2 + a3 x^3 nearest 0 (NaN when there is
-// none): closed form (a cubic, or the quadratic or line it degenerates to),
-// then Newton steps on the original polynomial to undo the closed form's
-// cancellation when a3 is small next to a1 (the usual case: a short step).
-double root_nearest_zero(const double a[4]) {
-  const double size = std::max({std::abs(a[0]), std::abs(a[1]), std::abs(a[2]), std::abs(a[3])});
-  if (size == 0) return 0;
-  if (a[0] == 0) return 0;
-  double roots[3];
-  int count = 0;
-  const double lower = std::max(std::abs(a[1]), std::abs(a[2]));
-  if (std::abs(a[3]) > 1e-12 * lower) {
+// Real roots of a0 + a1 x + a2 x^2 (+ a3 x^3 when `cubic`) by closed form,
+// appended to roots[count]: the cubic (Cardano / trigonometric), the quadratic
+// (its cancellation-free pair), or the line they degenerate to.
+void closed_form_roots(const double a[4], bool cubic, double* roots, int& count) {
+  if (cubic) {
     const double b = a[2] / a[3], c = a[1] / a[3], d = a[0] / a[3];
     const double p = c - b * b / 3, q = 2 * b * b * b / 27 - b * c / 3 + d;
     const double discriminant = q * q / 4 + p * p * p / 27;
@@ -48,29 +41,43 @@ double root_nearest_zero(const double a[4]) {
     } else {
       roots[count++] = -b / 3;  // a triple root
     }
-  } else if (std::abs(a[2]) > 1e-12 * std::abs(a[1])) {
+  } else if (a[2] != 0) {
     const double discriminant = a[1] * a[1] - 4 * a[2] * a[0];
-    if (discriminant < 0) return NAN;
-    // The numerically stable pair of the quadratic formula.
+    if (discriminant < 0) return;
     const double q = -0.5 * (a[1] + std::copysign(std::sqrt(discriminant), a[1]));
     roots[count++] = q / a[2];
     if (q != 0) roots[count++] = a[0] / q;
   } else if (a[1] != 0) {
     roots[count++] = -a[0] / a[1];
-  } else {
-    return NAN;
   }
+}
+
+// The real root of a0 + a1 x + a2 x^2 + a3 x^3 nearest 0 (NaN when there is
+// none). Candidates: the cubic's closed form, and the quadratic's with a3
+// dropped (a short step has a3 x^3 negligible, and then the cubic's closed form
+// divides by a tiny a3 and loses the small root to cancellation); each is
+// refined by Newton steps on the full polynomial and kept only when it is a
+// root there to rounding.
+double root_nearest_zero(const double a[4]) {
+  if (a[0] == 0) return 0;
+  double roots[5];
+  int count = 0;
+  if (a[3] != 0) closed_form_roots(a, true, roots, count);
+  closed_form_roots(a, false, roots, count);
   double best = NAN;
   for (int k = 0; k < count; ++k) {
     double x = roots[k];
-    for (int it = 0; it < 4; ++it) {
+    for (int it = 0; it < 8; ++it) {
       const double slope = (3 * a[3] * x + 2 * a[2]) * x + a[1];
       if (slope == 0) break;
       const double next = x - polynomial(a, x) / slope;
       if (!std::isfinite(next)) break;
+      if (next == x) break;
       x = next;
     }
-    if (std::isfinite(x) && !(std::abs(x) >= std::abs(best))) best = x;
+    const double terms = std::abs(a[0]) + std::abs(a[1] * x) + std::abs(a[2] * x * x) + std::abs(a[3] * x * x * x);
+    if (!std::isfinite(x) || !(std::abs(polynomial(a, x)) <= 1e-10 * terms)) continue;
+    if (!(std::abs(x) >= std::abs(best))) best = x;
   }
   return best;
 }

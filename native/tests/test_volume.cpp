@@ -141,6 +141,33 @@ TEST(VolumeGlobal, AnOpenMeshIsSolvedAsTheSurface) {
   EXPECT_LT((kept - solve(p, Volume::None)).rowwise().norm().maxCoeff(), 1e-9);
 }
 
+// A bake: frame after frame from the last solution, to a tolerance of 0 (stop only when stuck).
+TEST(VolumeGlobal, WarmStartsKeepTheVolumeFromTheRestShapeOn) {
+  const Pose bar = bent_bar();
+  const Pose cylinder = bend(arap::procedural::make_cylinder(16, 10, 0.5, 4.0), Eigen::RowVector3d(1.6, 0, -0.8));
+  for (double tolerance : {0.0, 1e-8})
+  for (const Pose* shape : {&bar, &cylinder}) {
+    const Pose& p = *shape;
+    SCOPED_TRACE(tolerance);
+    arap::Solver solver;
+    Options o;
+    o.volume = Volume::Global;
+    o.weights = arap::Weights::CotanClamped;
+    o.tolerance = tolerance;
+    o.max_iterations = 500;
+    solver.bind(p.mesh.vertices, p.mesh.triangles, p.constrained, o);
+    solver.options().init = arap::InitialGuess::WarmStart;
+    Points targets(p.targets.rows(), 3);
+    for (size_t k = 0; k < p.constrained.size(); ++k) targets.row(k) = p.mesh.vertices.row(p.constrained[k]);
+    for (int frame = 0; frame <= 4; ++frame) {
+      const Points frame_targets = targets + 0.25 * frame * (p.targets - targets);
+      const arap::SolveStats stats = solver.solve(frame_targets);
+      EXPECT_NEAR(volume_ratio(p, solver.positions()), 1.0, 1e-9) << frame;
+      EXPECT_LT(stats.volume_drift, 1e-9) << frame;
+    }
+  }
+}
+
 TEST(VolumeModes, AreCheckedAtBind) {
   const Pose p = bent_bar();
   arap::Solver solver;
