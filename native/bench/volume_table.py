@@ -153,8 +153,14 @@ def main():
     parser.add_argument("out")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--only", nargs="*", help="names of the cases to run (default all)")
+    parser.add_argument("--table", action="store_true",
+                        help="only write the table again from OUT/volume.json (no solving)")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
+    if args.table:
+        with open(os.path.join(args.out, "volume.json")) as f:
+            write_table(json.load(f), args.out)
+        return
 
     cases = []  # (name, factor, arap-deform inputs, rest mesh)
     for file in sorted(os.listdir(args.scenarios)):
@@ -190,8 +196,12 @@ def main():
         print("measured %s" % name, file=sys.stderr)
     with open(os.path.join(args.out, "volume.json"), "w") as f:
         json.dump(results, f, indent=1)
+    write_table(results, args.out)
+
+
+def write_table(results, out):
     markdown = table(results)
-    with open(os.path.join(args.out, "volume.md"), "w") as f:
+    with open(os.path.join(out, "volume.md"), "w") as f:
         f.write(markdown + "\n")
     print(markdown)
 
@@ -213,7 +223,8 @@ def table(results):
         lines.append("| %s | %d | %s | %s | %s | %s | %.3f, %.2f×, %.2f× | %s | %.3g, %.2f×, %.2f× |" % (
             r["case"], r["factor"], shape, vol,
             " / ".join("%.2f" % m[x]["cross_section_min"] for x in MODES),
-            " / ".join(str(m[x]["self_intersections"]) for x in MODES),
+            " / ".join(str(m[x]["self_intersections"]) for x in MODES) + (
+                " (rest %d)" % m["none"]["rest_self_intersections"] if m["none"]["rest_self_intersections"] else ""),
             base_d, m["global"]["distortion"] / base_d if base_d else 1, m["infill"]["distortion"] / base_d if base_d else 1,
             " / ".join(str(rep[x]["iterations"]) for x in MODES),
             base_t, r["global"]["cpu_ms_per_iteration"] / base_t, r["infill"]["cpu_ms_per_iteration"] / base_t))
