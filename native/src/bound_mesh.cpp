@@ -6,6 +6,7 @@
 
 #include "arap/errors.h"
 #include "arap/weights.h"
+#include "union_find.h"
 #include "vertex_order.h"
 
 namespace arap {
@@ -41,30 +42,15 @@ void check_input(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Tr
   }
 }
 
-int find_root(std::vector<int>& parent, int v) {
-  while (parent[v] != v) v = parent[v] = parent[parent[v]];
-  return v;
-}
-
 // Component id of every vertex over `edges` (-1: in no edge); returns the count.
 int label_over_edges(int n, const std::vector<WeightedEdge>& edges, std::vector<int>& component) {
-  std::vector<int> parent(n);
-  for (int v = 0; v < n; ++v) parent[v] = v;
+  UnionFind sets(n);
   std::vector<char> used(n, 0);
   for (const auto& e : edges) {
     used[e.i] = used[e.j] = 1;
-    parent[find_root(parent, e.j)] = find_root(parent, e.i);
+    sets.join(e.i, e.j);
   }
-  component.assign(n, -1);
-  std::vector<int> id_of_root(n, -1);
-  int count = 0;
-  for (int v = 0; v < n; ++v) {
-    if (!used[v]) continue;
-    const int r = find_root(parent, v);
-    if (id_of_root[r] < 0) id_of_root[r] = count++;
-    component[v] = id_of_root[r];
-  }
-  return count;
+  return sets.label(used, component);
 }
 
 }  // namespace

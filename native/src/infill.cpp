@@ -3,13 +3,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <numeric>
 #include <string>
 #include <unordered_map>
 
 #include <Eigen/Geometry>
 
 #include "arap/errors.h"
+#include "union_find.h"
 #include "winding.h"
 
 namespace arap {
@@ -35,11 +35,6 @@ std::uint64_t pair_key(int a, int b) {
 }
 Eigen::Vector3i offset(int q) { return {q % 3 - 1, (q / 3) % 3 - 1, q / 9 - 1}; }  // q in [0, 27)
 
-int find_root(std::vector<int>& parent, int v) {
-  while (parent[v] != v) v = parent[v] = parent[parent[v]];
-  return v;
-}
-
 // Cubes of size h over the box of the mesh's vertices, centred on it.
 struct Grid {
   Eigen::Vector3d origin;
@@ -63,25 +58,21 @@ Parts split_parts(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
   const int n = static_cast<int>(rest.rows());
   Parts parts;
   parts.vertex_area.assign(n, 0.0);
-  std::vector<int> parent(n);
-  std::iota(parent.begin(), parent.end(), 0);
+  UnionFind sets(n);
   std::vector<char> used(n, 0);
   for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
     const Eigen::Vector3d a = rest.row(triangles(f, 0)), b = rest.row(triangles(f, 1)), c = rest.row(triangles(f, 2));
     const double area = 0.5 * (b - a).cross(c - a).norm();
     for (int k = 0; k < 3; ++k) parts.vertex_area[triangles(f, k)] += area / 3, used[triangles(f, k)] = 1;
-    const int r = find_root(parent, triangles(f, 0));
-    parent[find_root(parent, triangles(f, 1))] = r;
-    parent[find_root(parent, triangles(f, 2))] = find_root(parent, r);
+    sets.join(triangles(f, 0), triangles(f, 1));
+    sets.join(triangles(f, 0), triangles(f, 2));
   }
-  std::vector<int> part(n, -1);
-  for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
-    const int r = find_root(parent, triangles(f, 0));
-    if (part[r] < 0) part[r] = static_cast<int>(parts.faces.size()), parts.faces.emplace_back(), parts.vertices.emplace_back();
-    parts.faces[part[r]].push_back(static_cast<int>(f));
-  }
+  std::vector<int> part;
+  parts.faces.resize(sets.label(used, part));
+  parts.vertices.resize(parts.faces.size());
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f) parts.faces[part[triangles(f, 0)]].push_back(static_cast<int>(f));
   for (int v = 0; v < n; ++v)
-    if (used[v]) parts.vertices[part[find_root(parent, v)]].push_back(v);
+    if (used[v]) parts.vertices[part[v]].push_back(v);
   return parts;
 }
 
@@ -156,8 +147,7 @@ InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<
     // them is inside: the lattice follows the inside of the part, and two limbs closer than
     // a cube (each in cubes of its own) stay apart (cf. Rivers & James, who split voxels so).
     // Corner q of cube i is 8 i + q; shared corners are merged (union-find) into nodes.
-    std::vector<int> parent(8 * cells.size());
-    std::iota(parent.begin(), parent.end(), 0);
+    UnionFind corners(8 * static_cast<int>(cells.size()));
     for (size_t i = 0; i < cells.size(); ++i)
       for (int axis = 0; axis < 3; ++axis) {
         Eigen::Vector3i next = cells[i];
@@ -169,11 +159,11 @@ InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<
         if (!(std::abs(winding(face)) >= 0.5)) continue;
         const int bit = 1 << axis;
         for (int q = 0; q < 8; ++q)
-          if (q & bit) parent[find_root(parent, 8 * static_cast<int>(i) + q)] = find_root(parent, 8 * it->second + (q ^ bit));
+          if (q & bit) corners.join(8 * it->second + (q ^ bit), 8 * static_cast<int>(i) + q);
       }
     std::vector<int> node_of(8 * cells.size(), -1);  // corner slot -> node
     auto node = [&](int i, int q) {
-      const int root = find_root(parent, 8 * i + q);
+      const int root = corners.root(8 * i + q);
       if (node_of[root] < 0) {
         node_of[root] = static_cast<int>(nodes.size());
         nodes.push_back(grid.corner(cells[i] + Eigen::Vector3i(q & 1, (q >> 1) & 1, (q >> 2) & 1)));

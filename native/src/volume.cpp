@@ -3,19 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <numeric>
 #include <unordered_map>
 
 #include <Eigen/Geometry>
 
+#include "union_find.h"
+
 namespace arap {
 
 namespace {
-
-int find_root(std::vector<int>& parent, int v) {
-  while (parent[v] != v) v = parent[v] = parent[parent[v]];
-  return v;
-}
 
 double triple(const double* a, const double* b, const double* c) {
   return a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
@@ -88,17 +84,15 @@ void VolumeConstraint::bind(const BoundMesh& m, const Triangles& triangles) {
   free_vertices_ = m.free_vertices;
   const int n = m.n;
   // Components over shared vertices.
-  std::vector<int> parent(n);
-  std::iota(parent.begin(), parent.end(), 0);
+  UnionFind sets(n);
   for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
-    const int r = find_root(parent, triangles(f, 0));
-    parent[find_root(parent, triangles(f, 1))] = r;
-    parent[find_root(parent, triangles(f, 2))] = find_root(parent, r);
+    sets.join(triangles(f, 0), triangles(f, 1));
+    sets.join(triangles(f, 0), triangles(f, 2));
   }
   std::vector<int> component(n, -1);
   std::vector<std::vector<int>> faces;
   for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
-    const int r = find_root(parent, triangles(f, 0));
+    const int r = sets.root(triangles(f, 0));
     if (component[r] < 0) component[r] = static_cast<int>(faces.size()), faces.emplace_back();
     faces[component[r]].push_back(static_cast<int>(f));
   }
