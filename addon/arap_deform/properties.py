@@ -41,9 +41,9 @@ VOLUME_ITEMS = (
     ('NONE', "Surface Only", "Surface ARAP: thick parts can fold flat and lose volume where they bend "
      "(the paper's method)"),
     ('GLOBAL', "Global", "Keep the enclosed volume of every closed part exactly; open parts are left as they are. "
-     "Cheap (about 1.4x a round), but the volume a bend squeezes out goes to the ends"),
+     "About 1.4x the cost of a round, but the volume a bend squeezes out goes to the ends"),
     ('INFILL', "Infill", "Fill the inside with a lattice posed with the surface, like a 3D print's infill: keeps "
-     "the volume and cross-sections where it bends, on any mesh (open ones too); about 2x a round"),
+     "the volume and cross-sections where it bends, on any mesh (open ones too); 1.3x to 3.4x the cost of a round"),
 )
 OUTPUT_ITEMS = (
     ('AUTO', "Auto", "A shape key named \"ARAP\" when the mesh has shape keys, otherwise the mesh itself"),
@@ -169,7 +169,8 @@ class ARAP_PG_settings(PropertyGroup):
     )
     volume: EnumProperty(
         name="Volume", description="What keeps thick parts from folding flat and losing volume where they bend "
-        "(README, \"Keeping the volume\"). Global and Infill work with the Quasi-Newton and Local/Global methods",
+        "(README, \"Keeping the volume\"). Global and Infill work with the Quasi-Newton and Local/Global methods "
+        "(with Anderson, Quasi-Newton is used)",
         items=VOLUME_ITEMS, default='NONE',
     )
     infill_resolution: IntProperty(

@@ -121,7 +121,7 @@ class ARAP_PT_solver(SubPanel, bpy.types.Panel):
         if s.method == 'ANDERSON':
             layout.prop(s, "acceleration")
             if s.volume != 'NONE':
-                layout.label(text="Volume %s needs Quasi-Newton or Local/Global" % s.volume.title(), icon='ERROR')
+                layout.label(text="Volume %s: solved with Quasi-Newton" % s.volume.title(), icon='INFO')
         layout.prop(s, "threads")
 
 
