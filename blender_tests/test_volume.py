@@ -89,13 +89,16 @@ class VolumeGlobal(unittest.TestCase):
         finally:
             s.cancel()
 
-    def test_auto_mode_keeps_the_volume(self):
-        self.obj.arap.volume = 'GLOBAL'
+    def test_auto_mode_keeps_the_volume_and_follows_the_setting(self):
         api.set_auto(self.obj, True)
         self.empty.matrix_world = POSE
         bpy.context.view_layer.update()
         self.assertGreater(np.ptp(U.coords(self.obj)[:, 0]), 1.5)   # it was posed
+        self.assertLess(self.kept(), 0.97)
+        self.obj.arap.volume = 'GLOBAL'   # Auto poses again with it, nothing else changed
         self.assertAlmostEqual(self.kept(), 1.0, delta=1e-5)
+        self.obj.arap.volume = 'NONE'
+        self.assertLess(self.kept(), 0.97)
 
     def test_bake_keeps_the_volume_on_every_frame(self):
         self.obj.arap.volume = 'GLOBAL'

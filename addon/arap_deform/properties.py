@@ -95,6 +95,14 @@ def _auto_changed(settings, context):
         auto.stop(obj)
 
 
+def _volume_changed(settings, context):
+    """Auto mode poses with the new Volume setting at once: its solver is bound again."""
+    if settings.auto:
+        from . import auto
+        auto.forget(settings.id_data)
+        auto.update_scene(context.scene)
+
+
 class ARAP_PG_settings(PropertyGroup):
     """ARAP settings of one mesh object."""
 
@@ -171,13 +179,13 @@ class ARAP_PG_settings(PropertyGroup):
         name="Volume", description="What keeps thick parts from folding flat and losing volume where they bend "
         "(README, \"Keeping the volume\"). Global and Infill work with the Quasi-Newton and Local/Global methods "
         "(with Anderson, Quasi-Newton is used)",
-        items=VOLUME_ITEMS, default='NONE',
+        items=VOLUME_ITEMS, default='NONE', update=_volume_changed,
     )
     infill_resolution: IntProperty(
         name="Infill Resolution",
         description="Lattice cubes along the longest side of the mesh: finer follows thin parts better and costs "
                     "more per round",
-        default=10, min=2, max=256, soft_max=64,
+        default=10, min=2, max=256, soft_max=64, update=_volume_changed,
     )
     acceleration: IntProperty(
         name="Acceleration",
