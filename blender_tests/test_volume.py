@@ -127,6 +127,24 @@ class VolumeGlobal(unittest.TestCase):
         self.obj = obj
 
 
+class VolumeInTheModule(unittest.TestCase):
+    def test_bad_volume_arguments_raise_arap_errors(self):
+        mod = engine.native()
+        U.clear_scene()
+        obj, _empty, fixed, top = U.bar_with_handle()
+        rest, tris, constrained = U.coords(obj), U.triangles(obj), np.concatenate([fixed, top])
+        for kwargs in ({"volume": "tets"}, {"volume": "global", "method": "anderson"},
+                       {"volume": "infill", "infill_resolution": 1}, {"volume": "infill", "infill_resolution": 257}):
+            with self.assertRaises(mod.ArapError, msg=str(kwargs)):
+                mod.Solver().bind(rest, tris, constrained, **kwargs)
+        s = mod.Solver()
+        s.bind(rest, tris, constrained, volume="infill", infill_resolution=4)
+        self.assertEqual((s.volume, s.infill_resolution), ("infill", 4))
+        coarse = s.mesh_report()["infill_cells"]
+        s.bind(rest, tris, constrained, volume="infill", infill_resolution=8)
+        self.assertGreater(s.mesh_report()["infill_cells"], coarse)
+
+
 class VolumeOnOpenMeshes(unittest.TestCase):
     def setUp(self):
         U.clear_scene()
