@@ -108,7 +108,7 @@ def bind(obj, scene=None):
     _registered()
     problem = engine.Problem(obj, scene)
     solver, _ms, _cached = engine.bound_solver(obj, problem.rest64, problem.tris, problem.setup.constrained,
-                                               problem.weights, problem.stiffness)
+                                               problem.weights, problem.stiffness, problem.volume)
     return solver.mesh_report()
 
 

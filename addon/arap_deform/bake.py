@@ -147,13 +147,14 @@ class Baker:
             raise SetupError("'%s' has no faces: ARAP needs a surface" % obj.name)
         s = obj.arap
         self.solver = engine.native().Solver()
+        volume = engine.volume_options(s)
         self.solver.bind(self.rest64, tris, self.setup.constrained, weights=engine.WEIGHT_NAMES[s.weights],
-                         stiffness=constraints.stiffness_of(obj))
+                         stiffness=constraints.stiffness_of(obj), **volume)
         self.solver.threads = 1  # reductions in a fixed order: identical bakes
         self.solver.max_iterations = iterations or DEFAULT_ITERATIONS
         self.solver.tolerance = s.tolerance if tolerance is None else tolerance
         self.solver.anderson_window = DEFAULT_ANDERSON if anderson is None else anderson
-        self.solver.method = engine.METHOD_NAMES[s.method]
+        self.solver.method = engine.solver_method(s)
         self.solver.cold_start = engine.INIT_NAMES[s.init]
         self.solver.init = "warm"
         self.rest_constrained = self.rest64[self.setup.constrained]

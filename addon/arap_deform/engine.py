@@ -18,6 +18,27 @@ from .constraints import SetupError
 WEIGHT_NAMES = {'COTAN': "cotan", 'COTAN_CLAMPED': "cotan-clamped", 'UNIFORM': "uniform"}
 INIT_NAMES = {'LAPLACIAN': "laplacian", 'DIFFERENTIAL': "differential", 'NAIVE': "naive"}
 METHOD_NAMES = {'QUASI_NEWTON': "quasi-newton", 'LOCAL_GLOBAL': "local-global", 'ANDERSON': "anderson"}
+VOLUME_NAMES = {'NONE': "none", 'GLOBAL': "global", 'INFILL': "infill"}
+
+
+def volume_options(settings):
+    """The bind arguments of the object's Volume setting (native names)."""
+    return {"volume": VOLUME_NAMES[settings.volume], "infill_resolution": settings.infill_resolution}
+
+
+def solver_method(settings):
+    """The native method for the object's settings: its Method, except that Anderson's extrapolated points
+    are not checked against the volume terms, so with Volume on it falls back to Quasi-Newton
+    (method_warning() says so)."""
+    if settings.volume != 'NONE' and settings.method == 'ANDERSON':
+        return METHOD_NAMES['QUASI_NEWTON']
+    return METHOD_NAMES[settings.method]
+
+
+def method_warning(settings):
+    if settings.volume != 'NONE' and settings.method == 'ANDERSON':
+        return "Volume %s needs Quasi-Newton or Local/Global: solved with Quasi-Newton" % settings.volume.title()
+    return None
 
 _native = None
 
@@ -113,15 +134,18 @@ def _digest(*arrays):
     return hash(tuple(a.tobytes() for a in arrays))
 
 
-def bound_solver(obj, rest64, tris, constrained, weights, stiffness=None):
-    """(solver, bind_ms, cached) for these inputs; binds only when they changed."""
+def bound_solver(obj, rest64, tris, constrained, weights, stiffness=None, volume=None):
+    """(solver, bind_ms, cached) for these inputs; binds only when they changed.
+    volume: volume_options() (None: surface only)."""
     stiff = np.empty(0) if stiffness is None else stiffness
-    key = (obj.as_pointer(), len(rest64), _digest(rest64, tris, constrained, stiff), weights)
+    volume = volume or {}
+    key = (obj.as_pointer(), len(rest64), _digest(rest64, tris, constrained, stiff), weights,
+           tuple(sorted(volume.items())))
     hit = _cache.get(obj.as_pointer())
     if hit is not None and hit[0] == key:
         return hit[1], 0.0, True
     solver = native().Solver()
-    solver.bind(rest64, tris, constrained, weights=weights, stiffness=stiffness)
+    solver.bind(rest64, tris, constrained, weights=weights, stiffness=stiffness, **volume)
     _cache[obj.as_pointer()] = (key, solver)
     while len(_cache) > _CACHE_SIZE:
         _cache.pop(next(iter(_cache)))
@@ -140,6 +164,19 @@ def unconstrained_warning(report):
         return None
     return ("%d vertices in %d part(s) have no fixed or handle vertex: they keep their rest shape"
             % (report["unconstrained_vertices"], n))
+
+
+def volume_warning(report, volume):
+    """Volume Global keeps closed parts only: say which were left alone."""
+    if volume.get("volume") != "global":
+        return None
+    n = report["volume_open_components"]
+    if n == 0:
+        return None
+    if report["volume_kept_components"] == 0:
+        return ("Volume Global keeps nothing here: the mesh has no closed part (%d open); try Volume Infill" % n)
+    return ("Volume Global keeps the volume of %d closed part(s); %d open part(s) are left as they are"
+            % (report["volume_kept_components"], n))
 
 
 def unconverged_warning(stats, max_iterations, tolerance):
@@ -176,6 +213,7 @@ class Problem:
         self.targets = np.empty_like(self.rest_constrained)
         self.weights = WEIGHT_NAMES[s.weights]
         self.stiffness = constraints.stiffness_of(obj)
+        self.volume = volume_options(s)
 
     def empty_matrices(self, scene):
         mats = []
@@ -196,10 +234,10 @@ def configured_solver(problem, settings, warm=False):
     solve() starts from the last solution, the first from the cold guess)."""
     solver = native().Solver()
     solver.bind(problem.rest64, problem.tris, problem.setup.constrained, weights=problem.weights,
-                stiffness=problem.stiffness)
+                stiffness=problem.stiffness, **problem.volume)
     solver.max_iterations = settings.iterations
     solver.tolerance = settings.tolerance
-    solver.method = METHOD_NAMES[settings.method]
+    solver.method = solver_method(settings)
     solver.anderson_window = settings.acceleration
     solver.threads = settings.threads
     if warm:
@@ -235,11 +273,11 @@ def deform(obj, scene=None, iterations=None, tolerance=None, init=None):
     targets = problem.compute_targets(obj, scene)
     s = obj.arap
     solver, bind_ms, cached = bound_solver(obj, problem.rest64, problem.tris, problem.setup.constrained,
-                                           problem.weights, problem.stiffness)
+                                           problem.weights, problem.stiffness, problem.volume)
     solver.max_iterations = iterations if iterations else s.iterations
     solver.tolerance = s.tolerance if tolerance is None else tolerance
     solver.init = INIT_NAMES[init or s.init]
-    solver.method = METHOD_NAMES[s.method]
+    solver.method = solver_method(s)
     solver.anderson_window = s.acceleration
     solver.time_budget_ms = 0.0
     solver.threads = s.threads
@@ -255,7 +293,8 @@ def deform(obj, scene=None, iterations=None, tolerance=None, init=None):
     t3 = time.perf_counter()
     report = solver.mesh_report()
     warnings = list(problem.setup.warnings)
-    for w in (unconstrained_warning(report), collapsed_handles_warning(problem, obj, scene),
+    for w in (unconstrained_warning(report), volume_warning(report, problem.volume), method_warning(s),
+              collapsed_handles_warning(problem, obj, scene),
               unconverged_warning(stats, solver.max_iterations, solver.tolerance)):
         if w:
             warnings.append(w)
@@ -389,13 +428,13 @@ class LiveSession:
         s = obj.arap
         self.solver = native().Solver()
         self.solver.bind(self.problem.rest64, self.problem.tris, self.problem.setup.constrained,
-                         weights=self.problem.weights, stiffness=self.problem.stiffness)
+                         weights=self.problem.weights, stiffness=self.problem.stiffness, **self.problem.volume)
         self.bind_ms = self.solver.bind_ms
         self.solver.max_iterations = iterations or s.live_iterations
         self.solver.tolerance = s.tolerance
         self.solver.cold_start = INIT_NAMES[s.init]
         self.solver.init = "warm"
-        self.solver.method = METHOD_NAMES[s.method]
+        self.solver.method = solver_method(s)
         self.solver.anderson_window = s.acceleration
         self.frame_ms = s.live_frame_ms
         self.solver.time_budget_ms = self.frame_ms
@@ -404,9 +443,10 @@ class LiveSession:
         self.write_enabled = write
         self.output = meshio.Output(obj, self.problem.output)
         self.warnings = list(self.problem.setup.warnings)
-        w = unconstrained_warning(self.solver.mesh_report())
-        if w:
-            self.warnings.append(w)
+        for w in (unconstrained_warning(self.solver.mesh_report()),
+                  volume_warning(self.solver.mesh_report(), self.problem.volume), method_warning(s)):
+            if w:
+                self.warnings.append(w)
         self.last = None
         self.active = True
         # Set by the panel's Apply/Cancel buttons; the modal operator acts on it.

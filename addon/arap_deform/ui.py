@@ -72,6 +72,9 @@ class ARAP_PT_main(bpy.types.Panel):
         sub.prop_search(s, "stiff_group", obj, "vertex_groups", text="Stiff Group")
         if s.stiff_group:
             sub.prop(s, "stiffness")
+        sub.prop(s, "volume")
+        if s.volume == 'INFILL':
+            sub.prop(s, "infill_resolution")
 
         col = layout.column(align=True)
         col.prop(s, "auto", text="Auto (follow the handles)", toggle=True, icon='AUTO')
@@ -117,6 +120,8 @@ class ARAP_PT_solver(SubPanel, bpy.types.Panel):
             layout.prop(s, name)
         if s.method == 'ANDERSON':
             layout.prop(s, "acceleration")
+            if s.volume != 'NONE':
+                layout.label(text="Volume %s: solved with Quasi-Newton" % s.volume.title(), icon='INFO')
         layout.prop(s, "threads")
 
 

@@ -1,5 +1,6 @@
 // arap-deform: deform a mesh file with constraints from a scenario JSON or
 // from index files, write the result (and a JSON report). See kDeformUsage.
+#include <time.h>
 #include <unistd.h>
 
 #include <Eigen/Geometry>
@@ -24,6 +25,13 @@ using namespace arap;
 using Clock = std::chrono::steady_clock;
 
 double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+// CPU time of this thread: comparable between runs on a busy machine, unlike wall time.
+double thread_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
 
 // A sibling of `path` with the same extension, renamed over it once complete,
 // so that a failed run never leaves a partial or stale file behind.
@@ -96,7 +104,9 @@ int run(const cli::DeformArgs& args) {
   const auto bind_start = Clock::now();
   solver.bind(mesh.vertices, triangles, constraints.indices, args.options);
   const double precompute_ms = ms_since(bind_start);
+  const double cpu_start = thread_cpu_ms();
   const SolveStats stats = solver.solve(constraints.targets);
+  const double solve_cpu_ms = thread_cpu_ms() - cpu_start;
 
   cli::RunInfo info;
   info.mesh_path = mesh_path;
@@ -108,6 +118,7 @@ int run(const cli::DeformArgs& args) {
   info.read_ms = read_ms;
   info.precompute_ms = precompute_ms;
   info.total_ms = ms_since(start);
+  info.solve_cpu_ms = solve_cpu_ms;
   info.distortion = rigidity_distortion(mesh.vertices, solver.positions(), triangles, &info.flipped_triangles);
 
   // Write both files under temporary names, then rename: all or nothing.
@@ -135,6 +146,11 @@ int run(const cli::DeformArgs& args) {
   }
 
   for (const std::string& w : constraints.warnings) std::cerr << "arap-deform: " << w << '\n';
+  const MeshReport& report = solver.mesh_report();
+  if (solver.options().volume == Volume::Global && report.volume_open_components > 0)
+    std::cerr << "arap-deform: --volume global keeps the volume of " << report.volume_kept_components
+              << " closed part(s); " << report.volume_open_components
+              << " open part(s) are left as they are (--volume infill fills open parts too)\n";
   if (!stats.converged && args.options.tolerance > 0)
     std::cerr << "arap-deform: stopped at the cap of " << stats.iterations
               << " iterations before the energy settled (tolerance " << args.options.tolerance

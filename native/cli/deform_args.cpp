@@ -51,6 +51,16 @@ Solver options (the defaults solve until the pose has settled):
   --weights NAME        cotan | cotan-clamped | uniform (default cotan-clamped)
   --threads K           worker threads (default 1)
   --anderson M          Anderson window (default 5); alone it implies --method anderson
+  --volume MODE         what keeps thick parts from losing volume where they bend:
+                          none    surface ARAP only (default)
+                          global  the enclosed volume of every closed part kept
+                                  exactly (open parts are left alone);
+                                  quasi-newton or local-global
+                          infill  a coarse lattice filling the inside, posed
+                                  as-rigid-as-possible with the surface bound
+                                  to it: keeps local volume and cross-sections,
+                                  on any mesh (open ones too)
+  --infill-resolution N lattice cells along the mesh's longest side (default 10)
   The textbook iteration of the paper, e.g. to compare energies with other
   implementations: --method local-global --iterations N --tolerance 0.
 
@@ -102,7 +112,7 @@ Eigen::Vector3d parse_vector(const std::string& flag, const std::string& s) {
 
 DeformArgs parse_deform_args(int argc, const char* const* argv) {
   DeformArgs a;
-  bool method_given = false, anderson_given = false;
+  bool method_given = false, anderson_given = false, infill_resolution_given = false;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     auto value = [&]() -> std::string {
@@ -148,6 +158,12 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
     } else if (arg == "--method") {
       a.options.method = parse_method(value());
       method_given = true;
+    } else if (arg == "--volume") {
+      a.options.volume = parse_volume(value());
+    } else if (arg == "--infill-resolution") {
+      a.options.infill_resolution = parse_int(arg, value(), 2);
+      if (a.options.infill_resolution > 256) throw UsageError("--infill-resolution expects 2..256 cells");
+      infill_resolution_given = true;
     } else if (arg == "--anderson") {
       a.options.anderson_window = parse_int(arg, value(), 0);
       anderson_given = true;
@@ -169,6 +185,11 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
   if (anderson_given && !method_given) a.options.method = Method::Anderson;
   if (anderson_given && a.options.method != Method::Anderson)
     throw UsageError("--anderson applies to --method anderson only");
+  if (infill_resolution_given && a.options.volume != Volume::Infill)
+    throw UsageError("--infill-resolution applies to --volume infill only");
+  if (a.options.volume != Volume::None && a.options.method == Method::Anderson)
+    throw UsageError("--volume " + to_string(a.options.volume) +
+                     " works with --method quasi-newton or local-global, not anderson");
   if (a.scenario.empty() == a.input.empty()) throw UsageError("give either --scenario S.json or an INPUT mesh");
   if (!a.scenario.empty() && (!a.fixed_file.empty() || !a.handles.empty()))
     throw UsageError("--fixed/--handle cannot be combined with --scenario");

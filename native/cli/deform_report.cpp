@@ -22,6 +22,8 @@ nlohmann::json make_report(const RunInfo& run, const Solver& solver, const Solve
   r["tolerance"] = o.tolerance;
   r["threads"] = o.threads;
   r["anderson_window"] = o.anderson_window;
+  r["volume"] = to_string(o.volume);
+  if (o.volume == Volume::Infill) r["infill_resolution"] = o.infill_resolution;
 
   r["iterations"] = stats.iterations;
   r["converged"] = stats.converged;
@@ -40,6 +42,9 @@ nlohmann::json make_report(const RunInfo& run, const Solver& solver, const Solve
   r["direction_ms"] = stats.direction_ms;
   r["line_search_steps"] = stats.line_search_steps;
   r["quasi_newton_resets"] = stats.quasi_newton_resets;
+  r["volume_ms"] = stats.volume_ms;
+  r["volume_drift"] = stats.volume_drift;
+  r["solve_cpu_ms"] = run.solve_cpu_ms;
   r["factor_nonzeros"] = solver.factor_nonzeros();
   r["bind_mesh_ms"] = solver.bind_stats().mesh_ms;
   r["bind_ordering_ms"] = solver.bind_stats().ordering_ms;
@@ -53,6 +58,10 @@ nlohmann::json make_report(const RunInfo& run, const Solver& solver, const Solve
   r["unconstrained_components"] = m.unconstrained_components;
   r["unconstrained_vertices"] = m.unconstrained_vertices;
   r["nonmanifold_edges"] = m.nonmanifold_edges;
+  r["volume_kept_components"] = m.volume_kept_components;
+  r["volume_open_components"] = m.volume_open_components;
+  r["infill_cells"] = m.infill_cells;
+  r["infill_nodes"] = m.infill_nodes;
   return r;
 }
 

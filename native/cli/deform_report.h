@@ -18,6 +18,7 @@ struct RunInfo {
   double read_ms = 0;
   double precompute_ms = 0;  // wall time of Solver::bind
   double total_ms = 0;       // read + bind + solve
+  double solve_cpu_ms = 0;   // CPU time of the solving thread in Solver::solve (CLOCK_THREAD_CPUTIME_ID)
   // Weight-free look of the result (arap::rigidity_distortion) and flipped triangles.
   double distortion = 0;
   int flipped_triangles = 0;

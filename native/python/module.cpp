@@ -153,6 +153,10 @@ py::dict report_dict(const arap::MeshReport& r) {
   d["unconstrained_components"] = r.unconstrained_components;
   d["unconstrained_vertices"] = r.unconstrained_vertices;
   d["nonmanifold_edges"] = r.nonmanifold_edges;
+  d["volume_kept_components"] = r.volume_kept_components;
+  d["volume_open_components"] = r.volume_open_components;
+  d["infill_cells"] = r.infill_cells;
+  d["infill_nodes"] = r.infill_nodes;
   return d;
 }
 
@@ -193,6 +197,9 @@ PYBIND11_MODULE(_arap_native, m) {
       .def_readonly("direction_ms", &arap::SolveStats::direction_ms)
       .def_readonly("line_search_steps", &arap::SolveStats::line_search_steps)
       .def_readonly("quasi_newton_resets", &arap::SolveStats::quasi_newton_resets)
+      .def_readonly("volume_ms", &arap::SolveStats::volume_ms)
+      .def_readonly("volume_drift", &arap::SolveStats::volume_drift,
+                    "volume global: largest |V / V_rest - 1| of a kept part at the end")
       .def("__repr__", [](const arap::SolveStats& s) {
         return "<SolveStats iterations=" + std::to_string(s.iterations) +
                " energy=" + (s.energy.empty() ? std::to_string(s.initial_energy) : std::to_string(s.energy.back())) +
@@ -205,7 +212,8 @@ PYBIND11_MODULE(_arap_native, m) {
           "bind",
           [](arap::Solver& s, const py::array& rest, const py::array& triangles, const py::array& constrained,
              const std::string& weights, const std::string& init, int max_iterations, double tolerance, int threads,
-             int anderson_window, py::object stiffness, const std::string& method) {
+             int anderson_window, py::object stiffness, const std::string& method, const std::string& volume,
+             int infill_resolution) {
             PointsView r = view_points(rest, "rest");
             arap::Triangles tri = to_triangles(triangles);
             std::vector<int> con = to_indices(constrained);
@@ -223,6 +231,8 @@ PYBIND11_MODULE(_arap_native, m) {
             o.tolerance = tolerance;
             o.threads = threads;
             o.anderson_window = anderson_window;
+            o.volume = arap::parse_volume(volume);
+            o.infill_resolution = infill_resolution;
             py::gil_scoped_release release;
             s.bind(r.map(), tri, con, o, stiff);
           },
@@ -230,9 +240,13 @@ PYBIND11_MODULE(_arap_native, m) {
           py::arg("init") = "naive", py::arg("max_iterations") = arap::Options().max_iterations,
           py::arg("tolerance") = arap::Options().tolerance, py::arg("threads") = 1,
           py::arg("anderson_window") = arap::Options().anderson_window, py::arg("stiffness") = py::none(),
-          py::arg("method") = "quasi-newton",
+          py::arg("method") = "quasi-newton", py::arg("volume") = "none",
+          py::arg("infill_resolution") = arap::Options().infill_resolution,
           "rest: #V by 3 positions; triangles: #F by 3 indices; constrained: vertex indices (no duplicates);\n"
-          "stiffness: optional, one value > 0 per vertex scaling its cell's energy (default all 1).")
+          "stiffness: optional, one value > 0 per vertex scaling its cell's energy (default all 1);\n"
+          "volume: none | global (the enclosed volume of closed parts kept exactly) | infill (a lattice\n"
+          "filling the inside, infill_resolution cubes along the longest side); global and infill work\n"
+          "with the quasi-newton and local-global methods.")
       .def(
           "solve",
           [](arap::Solver& s, const py::array& targets, py::object out) {
@@ -334,5 +348,8 @@ PYBIND11_MODULE(_arap_native, m) {
       .def_property(
           "cold_start", [](const arap::Solver& s) { return arap::to_string(s.options().cold_start); },
           [](arap::Solver& s, const std::string& v) { s.options().cold_start = arap::parse_initial_guess(v); })
-      .def_property_readonly("weights", [](const arap::Solver& s) { return arap::to_string(s.options().weights); });
+      .def_property_readonly("weights", [](const arap::Solver& s) { return arap::to_string(s.options().weights); })
+      .def_property_readonly("volume", [](const arap::Solver& s) { return arap::to_string(s.options().volume); },
+                             "none | global | infill (set at bind)")
+      .def_property_readonly("infill_resolution", [](const arap::Solver& s) { return s.options().infill_resolution; });
 }

@@ -6,6 +6,7 @@
 
 #include "arap/errors.h"
 #include "arap/weights.h"
+#include "union_find.h"
 #include "vertex_order.h"
 
 namespace arap {
@@ -41,11 +42,22 @@ void check_input(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Tr
   }
 }
 
+// Component id of every vertex over `edges` (-1: in no edge); returns the count.
+int label_over_edges(int n, const std::vector<WeightedEdge>& edges, std::vector<int>& component) {
+  UnionFind sets(n);
+  std::vector<char> used(n, 0);
+  for (const auto& e : edges) {
+    used[e.i] = used[e.j] = 1;
+    sets.join(e.i, e.j);
+  }
+  return sets.label(used, component);
+}
+
 }  // namespace
 
 BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
                            const std::vector<int>& constrained, Weights weights,
-                           const std::vector<double>& stiffness) {
+                           const std::vector<double>& stiffness, const InfillGraph* infill) {
   check_input(rest, triangles, constrained);
   if (!stiffness.empty() && stiffness.size() != static_cast<size_t>(rest.rows()))
     throw Error(ErrorCode::InvalidInput, "expected one stiffness per vertex (" + std::to_string(rest.rows()) +
@@ -55,32 +67,51 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
       throw Error(ErrorCode::InvalidInput,
                   "the stiffness of vertex " + std::to_string(v) + " must be a finite number > 0");
   BoundMesh m;
-  m.n = static_cast<int>(rest.rows());
-  m.report.vertices = m.n;
+  m.input_n = static_cast<int>(rest.rows());
+  m.n = m.input_n + (infill ? static_cast<int>(infill->nodes.rows()) : 0);
+  m.report.vertices = m.input_n;
   m.report.triangles = static_cast<int>(triangles.rows());
 
   EdgeCounts counts;
-  const std::vector<WeightedEdge> edges = edge_weights(rest, triangles, weights, &counts);
+  std::vector<WeightedEdge> edges = edge_weights(rest, triangles, weights, &counts);
   m.report.degenerate_triangles = counts.degenerate_triangles;
   m.report.nonmanifold_edges = counts.nonmanifold_edges;
+  // Volume::Infill: the lattice nodes follow the mesh's vertices (input index #V + k), with their edges.
+  Points all(m.n, 3);
+  all.topRows(m.input_n) = rest;
+  if (infill) {
+    all.bottomRows(m.n - m.input_n) = infill->nodes;
+    edges.insert(edges.end(), infill->edges.begin(), infill->edges.end());
+    m.report.infill_nodes = static_cast<int>(infill->nodes.rows());
+    m.report.infill_cells = infill->cells;
+  }
 
   // Internal numbering for locality of the per-vertex loops.
   m.order = locality_order(m.n, edges);
   m.rank.assign(m.n, 0);
   for (int k = 0; k < m.n; ++k) m.rank[m.order[k]] = k;
   m.rest.resize(m.n, 3);
-  for (int k = 0; k < m.n; ++k) m.rest.row(k) = rest.row(m.order[k]);
-  m.stiffness.assign(m.n, 1.0);
+  for (int k = 0; k < m.n; ++k) m.rest.row(k) = all.row(m.order[k]);
+  m.stiffness.assign(m.n, 1.0);  // lattice nodes: 1
   if (!stiffness.empty())
-    for (int k = 0; k < m.n; ++k) m.stiffness[k] = stiffness[m.order[k]];
+    for (int k = 0; k < m.n; ++k)
+      if (m.order[k] < m.input_n) m.stiffness[k] = stiffness[m.order[k]];
 
-  // Components without a constraint and isolated vertices are kept at rest.
+  // Components without a constraint and isolated vertices are kept at rest
+  // (the components over the edges, i.e. the non-degenerate triangles and the
+  // lattice; counted by the mesh's own vertices).
   std::vector<int> component;
-  m.report.components = label_components(rest, triangles, component);
-  std::vector<char> component_constrained(m.report.components, 0);
+  const int components = label_over_edges(m.n, edges, component);
+  std::vector<char> component_constrained(components, 0), component_counted(components, 0);
   for (int v : constrained)
     if (component[v] >= 0) component_constrained[component[v]] = 1;
-  for (int c = 0; c < m.report.components; ++c) m.report.unconstrained_components += !component_constrained[c];
+  for (int v = 0; v < m.input_n; ++v) {
+    const int c = component[v];
+    if (c < 0 || component_counted[c]) continue;
+    component_counted[c] = 1;
+    ++m.report.components;
+    m.report.unconstrained_components += !component_constrained[c];
+  }
   m.user_constrained = static_cast<int>(constrained.size());
   std::vector<char> is_constrained(m.n, 0);  // internal index
   for (int v : constrained) {
@@ -90,12 +121,13 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   for (int k = 0; k < m.n; ++k) {
     if (is_constrained[k]) continue;
     const int c = component[m.order[k]];
+    const bool counted = m.order[k] < m.input_n;  // lattice nodes are not the mesh's vertices
     if (c < 0) {
-      ++m.report.isolated_vertices;
+      m.report.isolated_vertices += counted;
     } else if (component_constrained[c]) {
       continue;
     } else {
-      ++m.report.unconstrained_vertices;
+      m.report.unconstrained_vertices += counted;
     }
     is_constrained[k] = 1;
     m.constrained.push_back(k);
@@ -138,6 +170,7 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   // the stiffness-weighted edge), assembled column by column (it is symmetric),
   // and its coupling to constrained vertices.
   const int nf = static_cast<int>(m.free_vertices.size());
+  const double lattice_scale = infill ? infill->preconditioner_scale : 1.0;
   std::vector<int> outer(nf + 1, 0), inner;
   std::vector<double> values;
   inner.reserve(m.spokes.size() + nf);
@@ -149,7 +182,8 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
     column.clear();
     for (int k = m.spoke_begin[i]; k < m.spoke_begin[i + 1]; ++k) {
       const int j = m.neighbor[k];
-      const double w = m.spokes[k].w * 0.5 * (m.stiffness[i] + m.stiffness[j]);
+      double w = m.spokes[k].w * 0.5 * (m.stiffness[i] + m.stiffness[j]);
+      if (m.order[i] >= m.input_n && m.order[j] >= m.input_n) w *= lattice_scale;
       diagonal += w;
       if (m.free_row[j] >= 0)
         column.emplace_back(m.free_row[j], -w);
@@ -170,13 +204,15 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
 }
 
 void to_internal(const BoundMesh& m, const Eigen::Ref<const Points>& input, Points& internal) {
-  internal.resize(m.n, 3);
-  for (int k = 0; k < m.n; ++k) internal.row(k) = input.row(m.order[k]);
+  if (internal.rows() != m.n) internal = m.rest;  // lattice nodes at rest when there is nothing else
+  for (int k = 0; k < m.n; ++k)
+    if (m.order[k] < m.input_n) internal.row(k) = input.row(m.order[k]);
 }
 
 void to_input(const BoundMesh& m, const Points& internal, Points& input) {
-  input.resize(m.n, 3);
-  for (int k = 0; k < m.n; ++k) input.row(m.order[k]) = internal.row(k);
+  input.resize(m.input_n, 3);
+  for (int k = 0; k < m.n; ++k)
+    if (m.order[k] < m.input_n) input.row(m.order[k]) = internal.row(k);
 }
 
 }  // namespace arap

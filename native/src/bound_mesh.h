@@ -11,6 +11,7 @@
 #include "arap/mesh_check.h"
 #include "arap/options.h"
 #include "arap/solver.h"
+#include "infill.h"
 
 namespace arap {
 
@@ -30,7 +31,8 @@ struct Coupling {
 // All vertex indices below are internal: vertex v of the input is rank[v]
 // (a locality order, see vertex_order.h); order[k] is the input index of k.
 struct BoundMesh {
-  int n = 0;
+  int n = 0;        // vertices solved for: the mesh's, then Volume::Infill's lattice nodes
+  int input_n = 0;  // the mesh's own (input indices [0, input_n); lattice node k is input_n + k)
   std::vector<int> order, rank;
   Points rest;  // internal order
   // Spokes of vertex i: [spoke_begin[i], spoke_begin[i + 1]).
@@ -47,17 +49,24 @@ struct BoundMesh {
   std::vector<int> free_vertices;     // row -> vertex
   std::vector<int> free_row;          // vertex -> row, -1 when constrained
   std::vector<Coupling> couplings;
-  Eigen::SparseMatrix<double> laplacian_ff;  // both triangles
+  // Both triangles. With Volume::Infill its lattice-lattice entries are scaled by
+  // InfillGraph::preconditioner_scale: the factor then preconditions the quasi-Newton
+  // path (which Infill runs on) for the bulk term; the global step it gives is only
+  // used as a first guess there.
+  Eigen::SparseMatrix<double> laplacian_ff;
   MeshReport report;
 };
 
 // Checks the input (throws arap::Error) and builds the bound mesh.
-// `constrained` and `triangles` use input indices.
+// `constrained` and `triangles` use input indices. `infill` (optional) adds
+// its lattice nodes and edges (Volume::Infill).
 BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
                            const std::vector<int>& constrained, Weights weights,
-                           const std::vector<double>& stiffness);
+                           const std::vector<double>& stiffness, const InfillGraph* infill = nullptr);
 
-// Rows of P moved between input and internal order.
+// Rows of P moved between input and internal order. to_internal writes the
+// mesh's vertices and keeps `internal`'s lattice rows (the rest shape's when
+// it has not #n rows); to_input writes the mesh's vertices only.
 void to_internal(const BoundMesh& m, const Eigen::Ref<const Points>& input, Points& internal);
 void to_input(const BoundMesh& m, const Points& internal, Points& input);
 

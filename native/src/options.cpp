@@ -56,4 +56,20 @@ std::string to_string(InitialGuess g) {
   return "?";
 }
 
+Volume parse_volume(const std::string& name) {
+  if (name == "none") return Volume::None;
+  if (name == "global") return Volume::Global;
+  if (name == "infill") return Volume::Infill;
+  throw Error(ErrorCode::InvalidInput, "unknown volume mode '" + name + "' (expected none, global or infill)");
+}
+
+std::string to_string(Volume v) {
+  switch (v) {
+    case Volume::None: return "none";
+    case Volume::Global: return "global";
+    case Volume::Infill: return "infill";
+  }
+  return "?";
+}
+
 }  // namespace arap

@@ -9,10 +9,13 @@
 #include "anderson.h"
 #include "block_cholesky.h"
 #include "bound_mesh.h"
+#include "infill.h"
+#include "infill_volume.h"
 #include "initial_guess.h"
 #include "lbfgs.h"
 #include "local_step.h"
 #include "unit_scale.h"
+#include "volume.h"
 
 namespace arap {
 
@@ -36,6 +39,15 @@ void check_options(const Options& o) {
     throw Error(ErrorCode::InvalidInput, "the time budget must be a finite number of milliseconds >= 0");
   if (o.cold_start == InitialGuess::WarmStart)
     throw Error(ErrorCode::InvalidInput, "the cold-start guess cannot itself be a warm start");
+  if (o.volume != Volume::None && o.volume != Volume::Global && o.volume != Volume::Infill)
+    throw Error(ErrorCode::InvalidInput, "unknown volume mode");
+  if (o.infill_resolution < 2 || o.infill_resolution > 256)
+    throw Error(ErrorCode::InvalidInput, "the infill resolution must be between 2 and 256 cells");
+  if (o.volume != Volume::None && o.method == Method::Anderson)
+    throw Error(ErrorCode::InvalidInput,
+                "volume " + to_string(o.volume) +
+                    " works with the quasi-newton and local-global methods, not anderson (its extrapolated points "
+                    "are not checked against the volume terms)");
 }
 
 double dot(const std::vector<double>& a, const std::vector<double>& b) {
@@ -51,12 +63,17 @@ constexpr int kQuasiNewtonHistory = 4;
 // Armijo's sufficient-decrease constant and the most trial points per iteration.
 constexpr double kArmijo = 1e-4;
 constexpr int kLineSearchTrials = 3;
+// Volume::Global: halvings of a plain step whose return onto the volume
+// constraint raised the energy (the step itself lowers it to first order).
+constexpr int kVolumeBacktracks = 30;
 
 }  // namespace
 
 struct Solver::Impl {
   Options options;
   Weights bound_weights = Weights::CotanClamped;
+  Volume bound_volume = Volume::None;
+  int bound_infill_resolution = 0;
   BoundMesh mesh;
   Triangles triangles;
   std::vector<int> constrained_input;  // as given to bind()
@@ -87,6 +104,14 @@ struct Solver::Impl {
   bool qn_plain = false;  // qn_d is the plain step
   double qn_slope = 0;    // dE/dalpha along qn_d, the direction of the next step
   Points last_targets;
+  // Volume::Global (see volume.h): the constraint, and at qn_x its gradient n
+  // and u = L^-1 n (#free by 3 each); the quasi-Newton path then keeps the
+  // Lagrangian gradient in qn_g. Local/global runs on that path too, without history.
+  VolumeConstraint volume;
+  std::vector<double> qn_n, qn_u;
+  // Volume::Infill's bulk term (see infill_volume.h), on the same path.
+  LatticeBulk bulk;
+  bool qn_history = true;
 
   void gather_free(std::vector<double>& out) const {
     for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
@@ -126,7 +151,35 @@ struct Solver::Impl {
     gather_free(qn_x);
     const auto t = Clock::now();
     half_gradient(mesh, state.data(), rotations.data(), qn_g.data(), options.threads);
+    if (bulk.active()) bulk.add_half_gradient(state.data(), qn_g.data());
     stats.direction_ms += ms_since(t);
+    if (volume.active()) {
+      volume_normal(stats);
+      volume.lagrangian_gradient(qn_g.data(), qn_n.data(), qn_u.data());
+    }
+  }
+
+  // Volume::Global: n = dV/dp and u = L^-1 n at the current positions.
+  void volume_normal(SolveStats& stats) {
+    auto t = Clock::now();
+    volume.gradient(state.data(), qn_n.data());
+    std::copy(qn_n.begin(), qn_n.end(), qn_u.begin());
+    stats.volume_ms += ms_since(t);
+    t = Clock::now();
+    laplacian.solve_in_place(qn_u.data(), work, options.threads);
+    stats.linear_solve_ms += ms_since(t);
+    t = Clock::now();
+    volume.set_normal(qn_n.data(), qn_u.data());
+    stats.volume_ms += ms_since(t);
+  }
+
+  // Volume::Global: the current positions moved onto the volume constraint
+  // along u (a first guess, or a warm start whose targets moved).
+  void project_volume(SolveStats& stats) {
+    volume_normal(stats);
+    const auto t = Clock::now();
+    volume.retract(state.data(), qn_u.data());  // no root within reach: the next trial points return instead
+    stats.volume_ms += ms_since(t);
   }
 
   // d = -L_ff^{-1} g: the local/global step from the current point. Returns 2 g.d.
@@ -135,6 +188,8 @@ struct Solver::Impl {
     for (size_t k = 0; k < qn_d.size(); ++k) qn_d[k] = -qn_g[k];
     laplacian.solve_in_place(qn_d.data(), work, options.threads);
     stats.linear_solve_ms += ms_since(t);
+    // With the volume kept, -L^-1 g~ is tangent already (u.g~ = 0): this only removes rounding.
+    if (volume.active()) volume.project_tangent(qn_d.data(), qn_n.data(), qn_u.data());
     return 2 * dot(qn_g, qn_d);
   }
 
@@ -143,6 +198,12 @@ struct Solver::Impl {
     for (size_t r = 0; r < mesh.free_vertices.size(); ++r) {
       double* p = state.data() + 3 * mesh.free_vertices[r];
       for (int c = 0; c < 3; ++c) p[c] = qn_x[3 * r + c] + alpha * qn_d[3 * r + c];
+    }
+    if (volume.active()) {
+      const auto t = Clock::now();
+      const bool on_constraint = volume.retract(state.data(), qn_u.data());
+      stats.volume_ms += ms_since(t);
+      if (!on_constraint) return std::numeric_limits<double>::infinity();
     }
     return local(stats);
   }
@@ -161,6 +222,11 @@ struct Solver::Impl {
     });
     stats.linear_solve_ms += solve_ms;
     stats.direction_ms += ms_since(t) - solve_ms;
+    if (volume.active()) {
+      // Onto the tangent plane; dE/dalpha = 2 g.d there (= 2 g~.d: n.d = 0 and g - g~ is along n).
+      volume.project_tangent(qn_d.data(), qn_n.data(), qn_u.data());
+      slope = 2 * dot(qn_g, qn_d);
+    }
     qn_plain = lbfgs.stored() == 0;
     if (!(slope < 0) && !qn_plain) {
       ++stats.quasi_newton_resets;
@@ -196,6 +262,13 @@ struct Solver::Impl {
       alpha = 1;
       next = trial(alpha, stats);
     }
+    // The plain step lowers the energy on the tangent plane; its return onto the
+    // volume constraint is of second order in the step: a shorter step always does.
+    for (int k = 0; volume.active() && k < kVolumeBacktracks && !(next <= energy); ++k) {
+      alpha *= 0.5;
+      ++stats.line_search_steps;
+      next = trial(alpha, stats);
+    }
     if (!(next <= energy)) {
       // Only at a stationary point to rounding: stay where we were.
       scatter_free(qn_x);
@@ -204,17 +277,28 @@ struct Solver::Impl {
       return energy;
     }
     // Accepted: s = alpha d, x += s, y = g_new - g, g = g_new, written straight into the history.
-    const auto t = Clock::now();
+    auto t = Clock::now();
     double* s = lbfgs.next_s();
     double* y = lbfgs.next_y();
     half_gradient(mesh, state.data(), rotations.data(), y, options.threads);
+    if (bulk.active()) bulk.add_half_gradient(state.data(), y);
+    if (volume.active()) {
+      // The step returned onto the constraint: s is where it landed, y the change of the Lagrangian gradient.
+      stats.direction_ms += ms_since(t);
+      volume_normal(stats);
+      volume.lagrangian_gradient(y, qn_n.data(), qn_u.data());
+      t = Clock::now();
+      for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
+        for (int c = 0; c < 3; ++c) qn_d[3 * r + c] = (state(mesh.free_vertices[r], c) - qn_x[3 * r + c]) / alpha;
+    }
     double sy = 0, ss = 0, yy = 0;
     for (size_t k = 0; k < qn_x.size(); ++k) {
       const double sk = alpha * qn_d[k], g_new = y[k], yk = g_new - qn_g[k];
       s[k] = sk, y[k] = yk, qn_x[k] += sk, qn_g[k] = g_new;
       sy += sk * yk, ss += sk * sk, yy += yk * yk;
     }
-    lbfgs.commit(sy, ss, yy);
+    if (qn_history) lbfgs.commit(sy, ss, yy);
+    if (volume.active()) gather_free(qn_x);  // exactly where the step landed (x + s rounds)
     stats.direction_ms += ms_since(t);
     return next;
   }
@@ -262,8 +346,9 @@ struct Solver::Impl {
 
   double local(SolveStats& stats) {
     const auto t = Clock::now();
-    const double e = local_step(mesh, state.data(), rotations.data(), cell_energy.data(), options.threads,
-                                &stats.rotation_fallbacks, eigenvalues.data());
+    double e = local_step(mesh, state.data(), rotations.data(), cell_energy.data(), options.threads,
+                          &stats.rotation_fallbacks, eigenvalues.data());
+    if (bulk.active()) e += bulk.energy(state.data());
     stats.rotation_ms += ms_since(t);
     rotations_valid = true;
     return e;
@@ -283,8 +368,14 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
   auto next = std::make_unique<Impl>();
   next->options = options;
   next->bound_weights = options.weights;
+  next->bound_volume = options.volume;
+  next->bound_infill_resolution = options.infill_resolution;
   next->unit = unit_scale_of(rest);
-  next->mesh = build_bound_mesh(rest / next->unit, triangles, constrained, options.weights, stiffness);
+  const Points scaled = rest / next->unit;
+  InfillGraph infill;
+  if (options.volume == Volume::Infill) infill = build_infill(scaled, triangles, options.infill_resolution);
+  next->mesh = build_bound_mesh(scaled, triangles, constrained, options.weights, stiffness,
+                                options.volume == Volume::Infill ? &infill : nullptr);
   next->bind_stats.mesh_ms = ms_since(start);
   next->triangles.resize(triangles.rows(), 3);
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)
@@ -304,6 +395,14 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
   next->coupled.assign(3 * nf, 0.0);
   next->rhs.assign(3 * nf, 0.0);
   next->work.assign(3 * nf, 0.0);
+  if (options.volume == Volume::Infill) next->bulk.bind(next->mesh, infill, kInfillBulk);
+  if (options.volume == Volume::Global) {
+    next->volume.bind(next->mesh, next->triangles);
+    next->mesh.report.volume_kept_components = next->volume.kept_components();
+    next->mesh.report.volume_open_components = next->volume.open_components();
+    next->qn_n.assign(3 * nf, 0.0);
+    next->qn_u.assign(3 * nf, 0.0);
+  }
   next->bound = true;
   next->bind_stats.ordering_ms = next->laplacian.ordering_ms();
   next->bind_stats.factor_ms = next->laplacian.factor_ms();
@@ -318,6 +417,9 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
   if (s.options.weights != s.bound_weights)
     throw Error(ErrorCode::InvalidInput, "the weights changed since bind(): bind again to use " +
                                              to_string(s.options.weights));
+  if (s.options.volume != s.bound_volume || s.options.infill_resolution != s.bound_infill_resolution)
+    throw Error(ErrorCode::InvalidInput, "the volume mode changed since bind(): bind again to use volume " +
+                                             to_string(s.options.volume));
   if (targets.rows() != s.mesh.user_constrained)
     throw Error(ErrorCode::InvalidInput, "expected " + std::to_string(s.mesh.user_constrained) +
                                              " target positions (one per constrained vertex), got " +
@@ -349,7 +451,10 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     s.first_guess(guess);
     stats.init_ms = ms_since(t);
 
-    const bool quasi_newton = s.options.method == Method::QuasiNewton;
+    // Volume::Global runs on the quasi-Newton path (local/global: without its history), see volume.h.
+    const bool quasi_newton = s.options.method == Method::QuasiNewton ||
+                              ((s.volume.active() || s.bulk.active()) && s.options.method == Method::LocalGlobal);
+    s.qn_history = s.options.method == Method::QuasiNewton;
     double previous_energy = std::numeric_limits<double>::quiet_NaN();
     const bool resume = quasi_newton && guess == InitialGuess::WarmStart && s.qn_resumable &&
                         s.last_targets.rows() == targets.rows() && s.last_targets == targets;
@@ -361,6 +466,7 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       // carries the moved targets through the mesh with one global step on the
       // last rotations (as the plain iteration's first step does).
       if (reuse_rotations) s.global_step(stats);
+      if (s.volume.active()) s.project_volume(stats);
       previous_energy = stats.initial_energy = s.local(stats);
       s.start_quasi_newton(stats);
       s.qn_slope = s.quasi_newton_direction(stats);
@@ -400,6 +506,7 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       if (s.options.time_budget_ms > 0 && ms_since(solve_start) >= s.options.time_budget_ms) break;
     }
     s.last_energy = stats.energy.empty() ? stats.initial_energy : stats.energy.back();
+    if (s.volume.active()) stats.volume_drift = s.volume.drift(s.state.data());
     // Finite in internal units is not enough: times `unit` it must stay finite too.
     if (!s.state.allFinite() || !std::isfinite(s.state.cwiseAbs().maxCoeff() * s.unit) ||
         !std::isfinite(s.last_energy))
@@ -413,7 +520,8 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
   to_input(s.mesh, s.state, s.positions);
   if (s.unit != 1.0) s.positions *= s.unit;
   s.has_solution = true;
-  if (s.options.method == Method::QuasiNewton) {
+  if (s.options.method == Method::QuasiNewton ||
+      ((s.volume.active() || s.bulk.active()) && s.options.method == Method::LocalGlobal)) {
     s.qn_resumable = true;
     s.qn_energy = stats.energy.empty() ? stats.initial_energy : stats.energy.back();
     s.last_targets = targets;
@@ -427,8 +535,8 @@ const Points& Solver::positions() const { return impl_->positions; }
 void Solver::set_positions(const Eigen::Ref<const Points>& positions) {
   Impl& s = *impl_;
   if (!s.bound) throw Error(ErrorCode::NotBound, "set_positions() called before bind()");
-  if (positions.rows() != s.mesh.n)
-    throw Error(ErrorCode::InvalidInput, "expected " + std::to_string(s.mesh.n) + " positions, got " +
+  if (positions.rows() != s.mesh.input_n)
+    throw Error(ErrorCode::InvalidInput, "expected " + std::to_string(s.mesh.input_n) + " positions, got " +
                                              std::to_string(positions.rows()));
   if (!positions.allFinite()) throw Error(ErrorCode::NonFinite, "positions contain NaN or Inf");
   s.positions = positions;
@@ -441,7 +549,7 @@ void Solver::set_positions(const Eigen::Ref<const Points>& positions) {
 Options& Solver::options() { return impl_->options; }
 const Options& Solver::options() const { return impl_->options; }
 bool Solver::is_bound() const { return impl_->bound; }
-int Solver::vertex_count() const { return impl_->mesh.n; }
+int Solver::vertex_count() const { return impl_->mesh.input_n; }
 const std::vector<int>& Solver::constrained() const { return impl_->constrained_input; }
 const MeshReport& Solver::mesh_report() const { return impl_->mesh.report; }
 double Solver::bind_ms() const { return impl_->bind_stats.total_ms; }
@@ -452,13 +560,15 @@ namespace {
 
 // Positions given in input order, moved to internal order, with the optimal
 // rotation of every cell; returns the energy. For energy() and energy_gradient().
+// Volume::Infill's lattice nodes are where `current` has them (the solver's state).
 double evaluate(const BoundMesh& m, double unit, const Eigen::Ref<const Points>& positions, int threads,
-                const char* caller, Points& P, std::vector<Eigen::Matrix3d>& R) {
-  if (positions.rows() != m.n)
-    throw Error(ErrorCode::InvalidInput, std::string(caller) + ": expected " + std::to_string(m.n) +
+                const char* caller, const Points& current, Points& P, std::vector<Eigen::Matrix3d>& R) {
+  if (positions.rows() != m.input_n)
+    throw Error(ErrorCode::InvalidInput, std::string(caller) + ": expected " + std::to_string(m.input_n) +
                                              " positions, got " + std::to_string(positions.rows()));
   if (!positions.allFinite())
     throw Error(ErrorCode::NonFinite, std::string(caller) + ": positions contain NaN or Inf");
+  P = current;
   to_internal(m, positions / unit, P);
   R.resize(m.n);
   std::vector<double> cells(m.n);
@@ -472,7 +582,9 @@ double Solver::energy(const Eigen::Ref<const Points>& positions) const {
   if (!s.bound) throw Error(ErrorCode::NotBound, "energy() called before bind()");
   Points P;
   std::vector<Eigen::Matrix3d> R;
-  return energy_to_user_units(evaluate(s.mesh, s.unit, positions, s.options.threads, "energy()", P, R), s.unit);
+  double e = evaluate(s.mesh, s.unit, positions, s.options.threads, "energy()", s.state, P, R);
+  if (s.bulk.active()) e += s.bulk.energy(P.data());
+  return energy_to_user_units(e, s.unit);
 }
 
 Points Solver::energy_gradient(const Eigen::Ref<const Points>& positions) const {
@@ -480,9 +592,10 @@ Points Solver::energy_gradient(const Eigen::Ref<const Points>& positions) const 
   if (!s.bound) throw Error(ErrorCode::NotBound, "energy_gradient() called before bind()");
   Points P;
   std::vector<Eigen::Matrix3d> R;
-  evaluate(s.mesh, s.unit, positions, s.options.threads, "energy_gradient()", P, R);
+  evaluate(s.mesh, s.unit, positions, s.options.threads, "energy_gradient()", s.state, P, R);
   Points gradient(s.mesh.n, 3), gradient_input;
   arap::energy_gradient(s.mesh, P.data(), R.data(), gradient.data());
+  if (s.bulk.active()) s.bulk.add_gradient(P.data(), gradient.data());
   to_input(s.mesh, gradient, gradient_input);
   gradient_input *= s.unit;  // E = unit^2 E(p / unit): dE/dp = unit dE_internal
   if (!gradient_input.allFinite())

@@ -26,6 +26,14 @@ struct MeshReport {
   // Edges shared by more than two triangles. The math does not need
   // manifoldness: they are solved as usual.
   int nonmanifold_edges = 0;
+  // Volume::Global: closed components whose enclosed volume is kept, and
+  // components left alone because they are open (not closed and consistently
+  // oriented). Closed components with no free vertex or no volume are neither.
+  int volume_kept_components = 0;
+  int volume_open_components = 0;
+  // Volume::Infill: lattice cubes and their corners (solved with the mesh).
+  int infill_cells = 0;
+  int infill_nodes = 0;
 };
 
 // A triangle is degenerate when twice its area is below this fraction of the

@@ -29,6 +29,13 @@ enum class Method {
   Anderson,     // local/global with Anderson acceleration over `anderson_window` iterates (Peng et al. 2018)
 };
 
+// What keeps the volume of thick parts where they bend (see README, "Keeping the volume").
+enum class Volume {
+  None,    // surface ARAP only (Sorkine & Alexa 2007)
+  Global,  // the enclosed volume of every closed component kept at its rest value, exactly
+  Infill,  // a coarse lattice filling the interior, posed as-rigid-as-possible with the surface bound to it
+};
+
 struct Options {
   Method method = Method::QuasiNewton;
   Weights weights = Weights::CotanClamped;
@@ -46,6 +53,10 @@ struct Options {
   // Stop after the iteration that passes this many milliseconds of solve()
   // (e.g. a viewport frame); the result is then not `converged`. 0 = no limit.
   double time_budget_ms = 0;
+  // Needs a bind (like `weights`). Volume::Global works with the quasi-Newton and local/global methods.
+  Volume volume = Volume::None;
+  // Volume::Infill: lattice cells along the longest side of the mesh's bounding box (2..256).
+  int infill_resolution = 10;
 };
 
 // Parse / print the names used on the command line and in Python ("cotan-clamped").
@@ -55,5 +66,7 @@ std::string to_string(Method m);
 InitialGuess parse_initial_guess(const std::string& name);
 std::string to_string(Weights w);
 std::string to_string(InitialGuess g);
+Volume parse_volume(const std::string& name);
+std::string to_string(Volume v);
 
 }  // namespace arap

@@ -37,6 +37,8 @@ struct SolveStats {
   double direction_ms = 0;            // quasi-Newton: gradients and the L-BFGS two-loop, all iterations
   long line_search_steps = 0;         // quasi-Newton: trial points beyond the first of each iteration
   long quasi_newton_resets = 0;       // quasi-Newton: directions refused (history dropped, plain step taken)
+  double volume_ms = 0;               // Volume::Global: volume gradients and returns onto the constraint
+  double volume_drift = 0;            // Volume::Global: largest |V / V_rest - 1| of a kept component at the end
 };
 
 struct BindStats {

@@ -1,0 +1,231 @@
+#include "infill.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <unordered_map>
+
+#include <Eigen/Geometry>
+
+#include "arap/errors.h"
+#include "union_find.h"
+#include "winding.h"
+
+namespace arap {
+
+namespace {
+
+// kappa and beta of infill.h: measured on the shared scenarios (README, "Keeping the volume").
+constexpr double kLatticeStiffness = 10;
+constexpr double kCoupling = 2;
+// More lattice cubes than this (over all components) is refused: lower the resolution.
+constexpr long kMaxCells = 2000000;
+
+using CellKey = std::int64_t;
+CellKey key_of(const Eigen::Vector3i& c) {
+  return (static_cast<CellKey>(c.x()) << 42) | (static_cast<CellKey>(c.y()) << 21) | static_cast<CellKey>(c.z());
+}
+Eigen::Vector3i cell_of_key(CellKey key) {
+  return {static_cast<int>(key >> 42), static_cast<int>((key >> 21) & ((1 << 21) - 1)),
+          static_cast<int>(key & ((1 << 21) - 1))};
+}
+std::uint64_t pair_key(int a, int b) {
+  return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | static_cast<std::uint32_t>(std::max(a, b));
+}
+Eigen::Vector3i offset(int q) { return {q % 3 - 1, (q / 3) % 3 - 1, q / 9 - 1}; }  // q in [0, 27)
+
+// Cubes of size h over the box of the mesh's vertices, centred on it.
+struct Grid {
+  Eigen::Vector3d origin;
+  double h = 0;
+  Eigen::Vector3i dims;
+  Eigen::Vector3i cell_of(const Eigen::Vector3d& p) const {
+    Eigen::Vector3i c;
+    for (int d = 0; d < 3; ++d) c[d] = std::clamp(static_cast<int>(std::floor((p[d] - origin[d]) / h)), 0, dims[d] - 1);
+    return c;
+  }
+  Eigen::Vector3d corner(const Eigen::Vector3i& c) const { return origin + h * c.cast<double>(); }
+};
+
+// The mesh's connected components (over shared vertices): triangles and vertices of each.
+struct Parts {
+  std::vector<std::vector<int>> faces, vertices;
+  std::vector<double> vertex_area;  // a third of the area of each vertex's triangles
+};
+
+Parts split_parts(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles) {
+  const int n = static_cast<int>(rest.rows());
+  Parts parts;
+  parts.vertex_area.assign(n, 0.0);
+  UnionFind sets(n);
+  std::vector<char> used(n, 0);
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
+    const Eigen::Vector3d a = rest.row(triangles(f, 0)), b = rest.row(triangles(f, 1)), c = rest.row(triangles(f, 2));
+    const double area = 0.5 * (b - a).cross(c - a).norm();
+    for (int k = 0; k < 3; ++k) parts.vertex_area[triangles(f, k)] += area / 3, used[triangles(f, k)] = 1;
+    sets.join(triangles(f, 0), triangles(f, 1));
+    sets.join(triangles(f, 0), triangles(f, 2));
+  }
+  std::vector<int> part;
+  parts.faces.resize(sets.label(used, part));
+  parts.vertices.resize(parts.faces.size());
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f) parts.faces[part[triangles(f, 0)]].push_back(static_cast<int>(f));
+  for (int v = 0; v < n; ++v)
+    if (used[v]) parts.vertices[part[v]].push_back(v);
+  return parts;
+}
+
+// The cubes of one part: those of its vertices' box whose centre is inside
+// (|winding number| >= 1/2), then the cubes holding a vertex with no inside
+// cube among its 27 neighbours (thin parts and open sheets get a lattice of
+// their own surface cubes). Sorted: the same lattice on every run.
+std::vector<Eigen::Vector3i> part_cells(const Grid& grid, const WindingNumber& winding,
+                                        const std::vector<Eigen::Vector3i>& vertex_cells, long& budget) {
+  Eigen::Vector3i lo = grid.dims, hi = Eigen::Vector3i::Constant(-1);
+  for (const Eigen::Vector3i& c : vertex_cells) lo = lo.cwiseMin(c), hi = hi.cwiseMax(c);
+  budget -= static_cast<long>(hi.x() - lo.x() + 1) * (hi.y() - lo.y() + 1) * (hi.z() - lo.z() + 1);
+  if (budget < 0)
+    throw Error(ErrorCode::InvalidInput, "the infill lattice would have more than " + std::to_string(kMaxCells) +
+                                             " cubes: lower the infill resolution");
+  std::unordered_map<CellKey, bool> inside;
+  for (int i = lo.x(); i <= hi.x(); ++i)
+    for (int j = lo.y(); j <= hi.y(); ++j)
+      for (int k = lo.z(); k <= hi.z(); ++k) {
+        const Eigen::Vector3i c(i, j, k);
+        if (std::abs(winding(grid.corner(c) + Eigen::Vector3d::Constant(0.5 * grid.h))) >= 0.5)
+          inside.emplace(key_of(c), true);
+      }
+  std::vector<CellKey> keys;
+  for (const auto& [key, unused] : inside) keys.push_back(key);
+  for (const Eigen::Vector3i& c : vertex_cells) {
+    bool near_inside = false;
+    for (int q = 0; q < 27 && !near_inside; ++q) near_inside = inside.count(key_of(c + offset(q))) > 0;
+    if (!near_inside) keys.push_back(key_of(c));
+  }
+  std::sort(keys.begin(), keys.end());
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  std::vector<Eigen::Vector3i> cells;
+  for (CellKey key : keys) cells.push_back(cell_of_key(key));
+  return cells;
+}
+
+}  // namespace
+
+InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
+                         int resolution) {
+  InfillGraph out;
+  const int n = static_cast<int>(rest.rows());
+  const Parts parts = split_parts(rest, triangles);
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = -lo;
+  for (const auto& list : parts.vertices)
+    for (int v : list) lo = lo.cwiseMin(rest.row(v).transpose()), hi = hi.cwiseMax(rest.row(v).transpose());
+  const double longest = parts.vertices.empty() ? 0.0 : (hi - lo).maxCoeff();
+  if (!(longest > 0)) return out;
+  Grid grid;
+  grid.h = longest / resolution;
+  for (int d = 0; d < 3; ++d) grid.dims[d] = std::max(1, static_cast<int>(std::ceil((hi[d] - lo[d]) / grid.h - 1e-9)));
+  grid.origin = 0.5 * (lo + hi) - 0.5 * grid.h * grid.dims.cast<double>();
+  out.spacing = grid.h;
+  out.preconditioner_scale = 1 + 9 * kInfillBulk;
+  const double edge_weight = kLatticeStiffness * grid.h / longest / 4;  // per cube, to each of its 12 edges
+  const double coupling = kCoupling / (grid.h * grid.h);
+
+  std::vector<Eigen::Vector3d> nodes;
+  std::unordered_map<std::uint64_t, double> lattice_edges;  // pair_key(node a, node b) -> weight
+  long budget = kMaxCells;
+  for (size_t part = 0; part < parts.faces.size(); ++part) {
+    const std::vector<int>& members = parts.vertices[part];
+    std::vector<Eigen::Vector3i> vertex_cells;
+    for (int v : members) vertex_cells.push_back(grid.cell_of(rest.row(v).transpose()));
+    const WindingNumber winding(rest, triangles, parts.faces[part]);
+    const std::vector<Eigen::Vector3i> cells = part_cells(grid, winding, vertex_cells, budget);
+    std::unordered_map<CellKey, int> active;  // cell -> index in `cells`
+    for (size_t i = 0; i < cells.size(); ++i) active.emplace(key_of(cells[i]), static_cast<int>(i));
+
+    // Two cubes side by side share their corners only when the centre of the face between
+    // them is inside: the lattice follows the inside of the part, and two limbs closer than
+    // a cube (each in cubes of its own) stay apart (cf. Rivers & James, who split voxels so).
+    // Corner q of cube i is 8 i + q; shared corners are merged (union-find) into nodes.
+    UnionFind corners(8 * static_cast<int>(cells.size()));
+    for (size_t i = 0; i < cells.size(); ++i)
+      for (int axis = 0; axis < 3; ++axis) {
+        Eigen::Vector3i next = cells[i];
+        ++next[axis];
+        const auto it = active.find(key_of(next));
+        if (it == active.end()) continue;
+        Eigen::Vector3d face = grid.corner(next) + Eigen::Vector3d::Constant(0.5 * grid.h);
+        face[axis] -= 0.5 * grid.h;
+        if (!(std::abs(winding(face)) >= 0.5)) continue;
+        const int bit = 1 << axis;
+        for (int q = 0; q < 8; ++q)
+          if (q & bit) corners.join(8 * it->second + (q ^ bit), 8 * static_cast<int>(i) + q);
+      }
+    std::vector<int> node_of(8 * cells.size(), -1);  // corner slot -> node
+    auto node = [&](int i, int q) {
+      const int root = corners.root(8 * i + q);
+      if (node_of[root] < 0) {
+        node_of[root] = static_cast<int>(nodes.size());
+        nodes.push_back(grid.corner(cells[i] + Eigen::Vector3i(q & 1, (q >> 1) & 1, (q >> 2) & 1)));
+        out.neighbors.push_back({-1, -1, -1, -1, -1, -1});
+      }
+      return node_of[root];
+    };
+    // The 12 edges of every cube (corners one bit apart), and each node's neighbours along the axes.
+    for (size_t i = 0; i < cells.size(); ++i) {
+      int corner[8];
+      for (int q = 0; q < 8; ++q) corner[q] = node(static_cast<int>(i), q);
+      for (int q = 0; q < 8; ++q)
+        for (int axis = 0; axis < 3; ++axis)
+          if (!(q & (1 << axis))) {
+            const int a = corner[q], b = corner[q | (1 << axis)];
+            lattice_edges[pair_key(a, b)] += edge_weight;
+            out.neighbors[a][2 * axis + 1] = b;
+            out.neighbors[b][2 * axis] = a;
+          }
+      ++out.cells;
+    }
+    // Each vertex to the 4 corners of the Kuhn tetrahedron of its cube that
+    // holds it (the cube split along its main diagonal, by the order of the
+    // local coordinates), with its barycentric weights. A vertex whose own
+    // cube is not in the lattice uses the nearest lattice cube next to it,
+    // its coordinates clamped: its offset, rotated with the lattice, is kept.
+    for (size_t index = 0; index < members.size(); ++index) {
+      const int v = members[index];
+      if (!(parts.vertex_area[v] > 0)) continue;
+      const Eigen::Vector3d p = rest.row(v).transpose();
+      auto found = active.find(key_of(vertex_cells[index]));
+      if (found == active.end()) {
+        double best = INFINITY;
+        for (int q = 0; q < 27; ++q) {
+          const auto it = active.find(key_of(vertex_cells[index] + offset(q)));
+          if (it == active.end()) continue;
+          const Eigen::Vector3d box = grid.corner(cells[it->second]);
+          const double d = (p - p.cwiseMax(box).cwiseMin(box + Eigen::Vector3d::Constant(grid.h))).squaredNorm();
+          if (d < best) best = d, found = it;
+        }
+      }
+      const int cube = found->second;
+      const Eigen::Vector3i cell = cells[cube];
+      const Eigen::Vector3d t = ((p - grid.origin) / grid.h - cell.cast<double>()).cwiseMax(0.0).cwiseMin(1.0);
+      int axis[3] = {0, 1, 2};
+      std::sort(axis, axis + 3, [&](int x, int y) { return t[x] > t[y]; });
+      const double weights[4] = {1 - t[axis[0]], t[axis[0]] - t[axis[1]], t[axis[1]] - t[axis[2]], t[axis[2]]};
+      int corner = 0;
+      for (int k = 0; k < 4; ++k) {
+        if (k > 0) corner |= 1 << axis[k - 1];
+        if (weights[k] < 1e-9) continue;
+        out.edges.push_back({v, n + node(cube, corner), coupling * parts.vertex_area[v] * weights[k]});
+      }
+    }
+  }
+  std::vector<std::pair<std::uint64_t, double>> sorted(lattice_edges.begin(), lattice_edges.end());
+  std::sort(sorted.begin(), sorted.end());
+  for (const auto& [key, w] : sorted)
+    out.edges.push_back({n + static_cast<int>(key >> 32), n + static_cast<int>(key & 0xffffffffu), w});
+  out.nodes.resize(static_cast<Eigen::Index>(nodes.size()), 3);
+  for (size_t k = 0; k < nodes.size(); ++k) out.nodes.row(static_cast<Eigen::Index>(k)) = nodes[k].transpose();
+  return out;
+}
+
+}  // namespace arap

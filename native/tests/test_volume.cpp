@@ -1,0 +1,295 @@
+// The volume modes (Options::volume): Global keeps the enclosed volume of
+// every closed part exactly and leaves open parts alone; Infill keeps more
+// volume and cross-section than the surface alone, on open and
+// self-intersecting inputs too. Every figure is measured on the positions
+// with arap::measure (independently of the solver), on meshes made here.
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "arap/errors.h"
+#include "arap/mesh_io.h"
+#include "arap/procedural.h"
+#include "arap/shape_measures.h"
+#include "arap/solver.h"
+#include "cli_fixture.h"
+
+namespace {
+
+using arap::Options;
+using arap::Points;
+using arap::Triangles;
+using arap::Volume;
+using arap::procedural::TriMesh;
+
+// A mesh, its constraints and the targets of "hold the bottom, move the top by `shift`".
+struct Pose {
+  TriMesh mesh;
+  std::vector<int> constrained;
+  Points targets;
+};
+
+Pose bend(TriMesh mesh, const Eigen::RowVector3d& shift) {
+  const auto picked = arap::procedural::pick_by_height(mesh.vertices);
+  Pose p{std::move(mesh), picked.fixed, {}};
+  p.constrained.insert(p.constrained.end(), picked.handle.begin(), picked.handle.end());
+  p.targets.resize(static_cast<Eigen::Index>(p.constrained.size()), 3);
+  for (size_t k = 0; k < p.constrained.size(); ++k) {
+    p.targets.row(k) = p.mesh.vertices.row(p.constrained[k]);
+    if (k >= picked.fixed.size()) p.targets.row(k) += shift;
+  }
+  return p;
+}
+
+// The 1 x 1 x 5 bar pulled sideways and down: surface ARAP loses about 9% of its volume.
+Pose bent_bar() { return bend(arap::procedural::make_bar_with_vertices(600), Eigen::RowVector3d(2, 0, -1)); }
+
+Points solve(const Pose& p, Volume volume, arap::Method method = arap::Method::QuasiNewton,
+             arap::SolveStats* stats = nullptr, arap::MeshReport* report = nullptr) {
+  arap::Solver solver;
+  Options o;
+  o.volume = volume;
+  o.method = method;
+  solver.bind(p.mesh.vertices, p.mesh.triangles, p.constrained, o);
+  const arap::SolveStats s = solver.solve(p.targets);
+  EXPECT_TRUE(s.converged);
+  if (stats) *stats = s;
+  if (report) *report = solver.mesh_report();
+  EXPECT_TRUE(solver.positions().allFinite());
+  return solver.positions();
+}
+
+double volume_ratio(const Pose& p, const Points& posed) {
+  return arap::measure::volume_kept(p.mesh.vertices, posed, p.mesh.triangles).ratio;
+}
+
+// `a` and `b` side by side (b moved by `offset`), as one mesh of two parts.
+TriMesh side_by_side(const TriMesh& a, const TriMesh& b, const Eigen::RowVector3d& offset) {
+  TriMesh m;
+  m.vertices.resize(a.vertices.rows() + b.vertices.rows(), 3);
+  m.vertices << a.vertices, b.vertices.rowwise() + offset;
+  m.triangles.resize(a.triangles.rows() + b.triangles.rows(), 3);
+  m.triangles << a.triangles, b.triangles.array() + static_cast<int>(a.vertices.rows());
+  return m;
+}
+
+// A capped cylinder without its caps: an open tube (the two cap centres, its last vertices, dropped).
+TriMesh open_tube() {
+  const TriMesh c = arap::procedural::make_cylinder(12, 20, 0.5, 5.0);
+  const int n = static_cast<int>(c.vertices.rows()) - 2;
+  std::vector<Eigen::RowVector3i> kept;
+  for (Eigen::Index f = 0; f < c.triangles.rows(); ++f)
+    if (c.triangles.row(f).maxCoeff() < n) kept.push_back(c.triangles.row(f));
+  TriMesh t{c.vertices.topRows(n), Triangles(static_cast<Eigen::Index>(kept.size()), 3)};
+  for (size_t f = 0; f < kept.size(); ++f) t.triangles.row(static_cast<Eigen::Index>(f)) = kept[f];
+  return t;
+}
+
+// ------------------------------------------------------------------ Global
+
+TEST(VolumeGlobal, KeepsTheEnclosedVolumeOfABentBarExactly) {
+  const Pose p = bent_bar();
+  const double surface = volume_ratio(p, solve(p, Volume::None));
+  EXPECT_LT(surface, 0.95);  // what there is to keep
+  for (arap::Method method : {arap::Method::QuasiNewton, arap::Method::LocalGlobal}) {
+    SCOPED_TRACE(arap::to_string(method));
+    arap::SolveStats stats;
+    arap::MeshReport report;
+    const Points posed = solve(p, Volume::Global, method, &stats, &report);
+    EXPECT_NEAR(volume_ratio(p, posed), 1.0, 1e-9);
+    EXPECT_LT(stats.volume_drift, 1e-9);
+    EXPECT_EQ(report.volume_kept_components, 1);
+    EXPECT_EQ(report.volume_open_components, 0);
+    // The handles are still where they were sent.
+    for (size_t k = 0; k < p.constrained.size(); ++k)
+      EXPECT_LT((posed.row(p.constrained[k]) - p.targets.row(k)).norm(), 1e-12) << k;
+  }
+}
+
+TEST(VolumeGlobal, KeepsEachClosedPartAndLeavesOpenPartsAsTheSurfaceSolvesThem) {
+  const TriMesh bar = arap::procedural::make_bar_with_vertices(400);
+  const TriMesh two_bars = side_by_side(bar, bar, Eigen::RowVector3d(3, 0, 0));
+  const Pose bars = bend(two_bars, Eigen::RowVector3d(2, 0, -1));
+  arap::MeshReport report;
+  const Points posed = solve(bars, Volume::Global, arap::Method::QuasiNewton, nullptr, &report);
+  EXPECT_EQ(report.volume_kept_components, 2);
+  // Each part's own volume, not only their sum.
+  EXPECT_NEAR(arap::measure::volume_kept(bars.mesh.vertices, posed, bars.mesh.triangles).worst_ratio, 1.0, 1e-9);
+
+  const Pose mixed = bend(side_by_side(bar, open_tube(), Eigen::RowVector3d(3, 0, 0)), Eigen::RowVector3d(2, 0, -1));
+  const Points kept = solve(mixed, Volume::Global, arap::Method::QuasiNewton, nullptr, &report);
+  EXPECT_EQ(report.volume_kept_components, 1);
+  EXPECT_EQ(report.volume_open_components, 1);
+  const arap::measure::VolumeKept v = arap::measure::volume_kept(mixed.mesh.vertices, kept, mixed.mesh.triangles);
+  EXPECT_EQ(v.closed_components, 1);
+  EXPECT_NEAR(v.ratio, 1.0, 1e-9);
+  // The tube is posed as surface ARAP poses it (the parts do not interact).
+  const Points surface = solve(mixed, Volume::None);
+  const Eigen::Index n = bar.vertices.rows();
+  const Eigen::Index m = mixed.mesh.vertices.rows() - n;
+  EXPECT_LT((kept.bottomRows(m) - surface.bottomRows(m)).rowwise().norm().maxCoeff(), 1e-3);
+  EXPECT_GT((kept.topRows(n) - surface.topRows(n)).rowwise().norm().maxCoeff(), 1e-2);
+}
+
+TEST(VolumeGlobal, AnOpenMeshIsSolvedAsTheSurface) {
+  const Pose p = bend(open_tube(), Eigen::RowVector3d(1, 0, -0.5));
+  arap::MeshReport report;
+  const Points kept = solve(p, Volume::Global, arap::Method::QuasiNewton, nullptr, &report);
+  EXPECT_EQ(report.volume_kept_components, 0);
+  EXPECT_EQ(report.volume_open_components, 1);
+  EXPECT_LT((kept - solve(p, Volume::None)).rowwise().norm().maxCoeff(), 1e-9);
+}
+
+// A bake: frame after frame from the last solution, to a tolerance of 0 (stop only when stuck).
+TEST(VolumeGlobal, WarmStartsKeepTheVolumeFromTheRestShapeOn) {
+  const Pose bar = bent_bar();
+  const Pose cylinder = bend(arap::procedural::make_cylinder(16, 10, 0.5, 4.0), Eigen::RowVector3d(1.6, 0, -0.8));
+  for (double tolerance : {0.0, 1e-8})
+  for (const Pose* shape : {&bar, &cylinder}) {
+    const Pose& p = *shape;
+    SCOPED_TRACE(tolerance);
+    arap::Solver solver;
+    Options o;
+    o.volume = Volume::Global;
+    o.weights = arap::Weights::CotanClamped;
+    o.tolerance = tolerance;
+    o.max_iterations = 500;
+    solver.bind(p.mesh.vertices, p.mesh.triangles, p.constrained, o);
+    solver.options().init = arap::InitialGuess::WarmStart;
+    Points targets(p.targets.rows(), 3);
+    for (size_t k = 0; k < p.constrained.size(); ++k) targets.row(k) = p.mesh.vertices.row(p.constrained[k]);
+    for (int frame = 0; frame <= 4; ++frame) {
+      const Points frame_targets = targets + 0.25 * frame * (p.targets - targets);
+      const arap::SolveStats stats = solver.solve(frame_targets);
+      EXPECT_NEAR(volume_ratio(p, solver.positions()), 1.0, 1e-9) << frame;
+      EXPECT_LT(stats.volume_drift, 1e-9) << frame;
+    }
+  }
+}
+
+TEST(VolumeModes, AreCheckedAtBind) {
+  const Pose p = bent_bar();
+  arap::Solver solver;
+  Options o;
+  o.volume = Volume::Global;
+  o.method = arap::Method::Anderson;
+  EXPECT_THROW(solver.bind(p.mesh.vertices, p.mesh.triangles, p.constrained, o), arap::Error);
+  for (int resolution : {1, 257}) {
+    o = Options();
+    o.volume = Volume::Infill;
+    o.infill_resolution = resolution;
+    EXPECT_THROW(solver.bind(p.mesh.vertices, p.mesh.triangles, p.constrained, o), arap::Error) << resolution;
+  }
+  EXPECT_THROW(arap::parse_volume("tets"), arap::Error);
+  for (Volume v : {Volume::None, Volume::Global, Volume::Infill}) EXPECT_EQ(arap::parse_volume(arap::to_string(v)), v);
+}
+
+// ------------------------------------------------------------------ Infill
+
+TEST(VolumeInfill, KeepsMoreVolumeAndCrossSectionThanTheSurface) {
+  const Pose p = bent_bar();
+  const Points surface = solve(p, Volume::None);
+  arap::MeshReport report;
+  const Points filled = solve(p, Volume::Infill, arap::Method::QuasiNewton, nullptr, &report);
+  EXPECT_GT(report.infill_cells, 0);
+  EXPECT_GT(report.infill_nodes, report.infill_cells);
+  const double surface_volume = volume_ratio(p, surface), filled_volume = volume_ratio(p, filled);
+  EXPECT_GT(filled_volume, surface_volume + 0.03) << surface_volume;
+  EXPECT_GT(filled_volume, 0.93);
+  const auto& t = p.mesh.triangles;
+  EXPECT_GT(arap::measure::cross_sections(p.mesh.vertices, filled, t).min,
+            arap::measure::cross_sections(p.mesh.vertices, surface, t).min + 0.05);
+}
+
+TEST(VolumeInfill, PosesOpenAndSelfIntersectingInputs) {
+  const TriMesh bar = arap::procedural::make_bar_with_vertices(400);
+  // Two bars through each other (the second one moved half a bar sideways), and an open tube.
+  const TriMesh crossed = side_by_side(bar, bar, Eigen::RowVector3d(0.5, 0.5, 0));
+  ASSERT_GT(arap::measure::self_intersecting_pairs(crossed.vertices, crossed.triangles), 0);
+  for (const TriMesh& mesh : {crossed, open_tube()}) {
+    const Pose p = bend(mesh, Eigen::RowVector3d(1, 0, -0.5));
+    arap::MeshReport report;
+    const Points posed = solve(p, Volume::Infill, arap::Method::QuasiNewton, nullptr, &report);
+    EXPECT_GT(report.infill_cells, 0);
+    EXPECT_GT((posed - p.mesh.vertices).rowwise().norm().maxCoeff(), 0.5);
+  }
+}
+
+// ------------------------------------------------------------------ the measures themselves
+
+TEST(ShapeMeasures, VolumeSectionsAndIntersectionsOfKnownShapes) {
+  const TriMesh bar = arap::procedural::make_bar(2, 2, 6, 1.0, 2.0, 3.0);
+  const auto all = arap::measure::components(static_cast<int>(bar.vertices.rows()), bar.triangles);
+  ASSERT_EQ(all.size(), 1u);
+  EXPECT_TRUE(all[0].closed);
+  EXPECT_NEAR(arap::measure::signed_volume(bar.vertices, bar.triangles, all[0].triangles), 6.0, 1e-12);
+  // Scaled by 2 about the origin: 8 times the volume, 4 times every cross-section's area.
+  const Points doubled = 2 * bar.vertices;
+  EXPECT_NEAR(arap::measure::volume_kept(bar.vertices, doubled, bar.triangles).ratio, 8.0, 1e-12);
+  const arap::measure::CrossSections sections = arap::measure::cross_sections(bar.vertices, doubled, bar.triangles);
+  EXPECT_GT(sections.loops, 0);
+  for (double r : sections.ratios) EXPECT_NEAR(r, 4.0, 1e-9);
+  EXPECT_EQ(arap::measure::self_intersecting_pairs(bar.vertices, bar.triangles), 0);
+  const TriMesh open = open_tube();
+  const auto tube = arap::measure::components(static_cast<int>(open.vertices.rows()), open.triangles);
+  ASSERT_EQ(tube.size(), 1u);
+  EXPECT_FALSE(tube[0].closed);
+  EXPECT_EQ(arap::measure::volume_kept(open.vertices, open.vertices, open.triangles).open_components, 1);
+}
+
+// ------------------------------------------------------------------ the command line
+
+#ifdef ARAP_DEFORM_EXE
+
+using arap_test::Cli;
+
+TEST_F(Cli, VolumeGlobalKeepsTheVolumeInTheWrittenFile) {
+  const TriMesh bar = make_bar_files();
+  const std::string setup = "bar.obj --fixed fixed.txt --handle handle.txt --translate 2,0,-1 -q ";
+  for (const std::string mode : {"none", "global", "infill"}) {
+    const arap_test::Result r = run(setup + "--volume " + mode + " --output " + mode + ".off --report " + mode + ".json");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(r.err.empty()) << r.err;
+    EXPECT_NE(slurp(path(mode + ".json")).find("\"volume\": \"" + mode + "\""), std::string::npos);
+  }
+  auto kept = [&](const std::string& mode) {
+    const arap::io::PolygonMesh out = arap::io::read_mesh(path(mode + ".off"));
+    return arap::measure::volume_kept(bar.vertices, out.vertices, bar.triangles).ratio;
+  };
+  EXPECT_NEAR(kept("global"), 1.0, 1e-5);  // the file holds floats
+  EXPECT_LT(kept("none"), 0.97);
+  EXPECT_GT(kept("infill"), kept("none"));
+}
+
+TEST_F(Cli, VolumeGlobalSaysWhichPartsItLeaves) {
+  // The bar and an open sheet (two triangles) beside it.
+  const TriMesh bar = make_bar_files();
+  std::string obj = slurp(path("bar.obj"));
+  const int n = static_cast<int>(bar.vertices.rows());
+  obj += "v 3 0 0\nv 4 0 0\nv 4 0 1\nv 3 0 1\nf " + std::to_string(n + 1) + " " + std::to_string(n + 2) + " " +
+         std::to_string(n + 3) + "\nf " + std::to_string(n + 1) + " " + std::to_string(n + 3) + " " +
+         std::to_string(n + 4) + "\n";
+  write("mixed.obj", obj);
+  const arap_test::Result r = run("mixed.obj --fixed fixed.txt --handle handle.txt --translate 2,0,-1 -q "
+                                  "--volume global --output m.off --report m.json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("1 open part(s) are left as they are"), std::string::npos) << r.err;
+  EXPECT_NE(slurp(path("m.json")).find("\"volume_open_components\": 1"), std::string::npos);
+}
+
+TEST_F(Cli, BadVolumeOptionsExitTwo) {
+  make_bar_files();
+  const std::string ok = "bar.obj --fixed fixed.txt --handle handle.txt --translate 1,0,0";
+  expect_bad_input(ok + " --volume tets");
+  expect_bad_input(ok + " --volume global --method anderson");
+  expect_bad_input(ok + " --volume infill --infill-resolution 1");
+  expect_bad_input(ok + " --volume infill --infill-resolution many");
+  const arap_test::Result help = run("--help");
+  for (const char* name : {"--volume", "global", "infill", "--infill-resolution"})
+    EXPECT_NE(help.out.find(name), std::string::npos) << name;
+}
+
+#endif  // ARAP_DEFORM_EXE
+
+}  // namespace
