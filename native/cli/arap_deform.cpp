@@ -11,8 +11,9 @@
 #include <iostream>
 
 #include "arap/errors.h"
-#include "arap/mesh_io.h"
-#include "arap/scenario.h"
+#include "arap/io/mesh_io.h"
+#include "arap/io/polygons.h"
+#include "arap/io/scenario.h"
 #include "arap/quality.h"
 #include "arap/solver.h"
 #include "deform_args.h"

@@ -8,7 +8,8 @@
 #include <string>
 
 #include "arap/errors.h"
-#include "arap/mesh_io.h"
+#include "arap/io/mesh_io.h"
+#include "arap/io/polygons.h"
 #include "arap/procedural.h"
 
 namespace {

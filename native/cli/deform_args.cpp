@@ -4,7 +4,7 @@
 #include <cstdlib>
 #include <sstream>
 
-#include "arap/mesh_io.h"
+#include "arap/io/files.h"
 
 namespace arap::cli {
 

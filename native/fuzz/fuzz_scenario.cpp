@@ -5,8 +5,8 @@
 #include <set>
 
 #include "arap/errors.h"
-#include "arap/mesh_io.h"
-#include "arap/scenario.h"
+#include "arap/io/mesh_io.h"
+#include "arap/io/scenario.h"
 #include "fuzz_common.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -27,8 +27,7 @@ int find_root(std::vector<int>& parent, int v) {
 
 }  // namespace
 
-int label_components(const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& rest,
-                     const Eigen::Ref<const Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>& triangles,
+int label_components(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
                      std::vector<int>& component_of_vertex) {
   const int n = static_cast<int>(rest.rows());
   std::vector<int> parent(n);

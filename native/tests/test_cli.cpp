@@ -14,9 +14,10 @@
 #include <vector>
 
 #include "arap/errors.h"
-#include "arap/mesh_io.h"
+#include "arap/io/mesh_io.h"
+#include "arap/io/polygons.h"
 #include "arap/procedural.h"
-#include "arap/scenario.h"
+#include "arap/io/scenario.h"
 #include "cli_fixture.h"
 
 namespace {
@@ -135,7 +136,6 @@ TEST_F(Scenario, MalformedFilesAreRefused) {
 
 // ---------------------------------------------------------------- arap-deform
 
-#ifdef ARAP_DEFORM_EXE
 
 using arap_test::Cli;
 using arap_test::Result;
@@ -325,6 +325,5 @@ TEST_F(Cli, HostileMeshFilesExitTwo) {
   }
 }
 
-#endif  // ARAP_DEFORM_EXE
 
 }  // namespace

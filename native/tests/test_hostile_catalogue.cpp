@@ -14,7 +14,6 @@
 
 #include "cli_fixture.h"
 
-#ifdef ARAP_DEFORM_EXE
 
 namespace {
 
@@ -209,4 +208,3 @@ TEST_F(HostileCatalogue, EveryCaseExitsTwoWritesNothingAndTouchesNoInput) {
 
 }  // namespace
 
-#endif  // ARAP_DEFORM_EXE

@@ -5,7 +5,7 @@
 
 #include <vector>
 
-#include <Eigen/Core>
+#include "arap/types.h"
 
 namespace arap {
 
@@ -35,8 +35,7 @@ constexpr double kDegenerateRelativeArea = 1e-12;
 
 // Component id of every vertex over non-degenerate triangles (-1 for isolated
 // vertices); returns the number of components.
-int label_components(const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& rest,
-                     const Eigen::Ref<const Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>& triangles,
+int label_components(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
                      std::vector<int>& component_of_vertex);
 
 bool is_degenerate_triangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c);

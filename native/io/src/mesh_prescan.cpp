@@ -12,7 +12,7 @@
 #include <string_view>
 #include <vector>
 
-#include "arap/mesh_io.h"
+#include "arap/io/files.h"
 
 namespace arap::io::detail {
 namespace {
@@ -442,7 +442,7 @@ Expected scan_stl(const std::string& path, const std::string& data) {
 
 }  // namespace
 
-Expected prescan(const std::string& path, const std::string& ext, std::uintmax_t /*size*/) {
+Expected prescan(const std::string& path, const std::string& ext) {
   const std::string data = read_all(path);
   if (ext == "off") return scan_off(path, data);
   if (ext == "ply") return scan_ply(path, data);

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "arap/solver.h"
+#include "arap/types.h"
 
 namespace arap::io {
 

@@ -1,4 +1,4 @@
-#include "arap/scenario.h"
+#include "arap/io/scenario.h"
 
 #include <array>
 #include <climits>
@@ -9,7 +9,7 @@
 #include <unordered_map>
 
 #include "arap/errors.h"
-#include "arap/mesh_io.h"
+#include "arap/io/files.h"
 
 namespace arap::io {
 namespace {
@@ -44,16 +44,6 @@ std::vector<int> index_list(const std::string& path, const json& j, const std::s
     out.push_back(static_cast<int>(v.get<long long>()));
   }
   return out;
-}
-
-// Devices and FIFOs (/dev/zero, a pipe) would be read forever.
-void require_regular_file(const std::string& path, const std::string& what) {
-  std::error_code ec;
-  const auto st = std::filesystem::status(path, ec);
-  if (ec || !std::filesystem::exists(st)) throw FileError(path + ": cannot open the " + what + " (no such file)");
-  if (!std::filesystem::is_regular_file(st)) throw FileError(path + ": the " + what + " is not a regular file");
-  if (std::filesystem::file_size(path, ec) > (std::uintmax_t(1) << 30) || ec)
-    throw FileError(path + ": the " + what + " is larger than 1 GiB");
 }
 
 double number(const std::string& path, const json& j, const std::string& where) {
