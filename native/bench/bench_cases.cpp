@@ -58,7 +58,7 @@ Case file_case(const std::string& path) {
   if (!scenario.name.empty()) c.name = scenario.name;
   read(scenario.mesh_path);
   arap::io::Constraints constraints = arap::io::build_constraints(c.rest, scenario.fixed, scenario.handles);
-  c.constrained = std::move(constraints.indices);
+  c.constrained = std::move(constraints.constrained);
   c.targets = std::move(constraints.targets);
   c.fixed_count = constraints.fixed_count;
   return c;

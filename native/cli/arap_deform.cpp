@@ -95,7 +95,7 @@ int run(const cli::DeformArgs& args) {
 
   Solver solver;
   const auto bind_start = Clock::now();
-  solver.bind(mesh.vertices, triangles, constraints.indices, args.options);
+  solver.bind(mesh.vertices, triangles, constraints.constrained, args.options);
   const double precompute_ms = ms_since(bind_start);
   const SolveStats stats = solver.solve(constraints.targets);
 
@@ -105,7 +105,7 @@ int run(const cli::DeformArgs& args) {
   info.faces = static_cast<int>(mesh.polygons.size());
   info.triangles = static_cast<int>(triangles.rows());
   info.fixed = constraints.fixed_count;
-  info.handle_vertices = static_cast<int>(constraints.indices.size()) - constraints.fixed_count;
+  info.handle_vertices = static_cast<int>(constraints.constrained.size()) - constraints.fixed_count;
   info.read_ms = read_ms;
   info.precompute_ms = precompute_ms;
   info.total_ms = ms_since(start);
@@ -135,7 +135,7 @@ int run(const cli::DeformArgs& args) {
     throw;
   }
 
-  for (const std::string& w : constraints.warnings) std::cerr << "arap-deform: " << w << '\n';
+  for (const std::string& w : constraints.warnings) std::cerr << "arap-deform: warning: " << w << '\n';
   if (!stats.converged && args.options.tolerance > 0)
     std::cerr << "arap-deform: stopped at the cap of " << stats.iterations
               << " iterations before the energy settled (tolerance " << args.options.tolerance

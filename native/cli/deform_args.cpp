@@ -28,8 +28,8 @@ Inputs:
   --translate DX,DY,DZ    translation of the current handle (default 0,0,0)
   --rotate AXIS,DEG       rotation about x, y or z through the handle's rest
                           centroid, applied before the translation
-  A vertex that is both fixed and in a handle stays FIXED (fixed wins; a
-  warning is printed). A vertex in two handles is an error.
+  A vertex that is both fixed and in a handle stays fixed; a vertex in two
+  handles follows the first of them (a warning names the other group).
 
 Solver options (the defaults solve until the pose has settled):
   --method NAME         how the energy is minimised:

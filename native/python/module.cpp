@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "arap/constraints.h"
 #include "arap/errors.h"
 #include "arap/options.h"
 #include "arap/solver.h"
@@ -130,14 +131,18 @@ arap::Triangles to_triangles(const py::array& a) {
   return tri;
 }
 
-std::vector<int> to_indices(const py::array& a) {
-  py::array_t<int64_t, py::array::c_style | py::array::forcecast> t(a);
-  if (t.ndim() != 1) throw py::value_error("constrained: expected a 1-D array of vertex indices");
+// Vertex indices from a 1-D array or sequence of integers (int32 and int64,
+// numpy's default, are both accepted). Indices beyond the mesh are the core's
+// to refuse (its messages name the group).
+std::vector<int> to_indices(const py::handle& a, const std::string& what) {
+  py::array_t<int64_t, py::array::c_style | py::array::forcecast> t =
+      py::array_t<int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+  if (!t || t.ndim() != 1) throw py::value_error(what + ": expected a 1-D array of vertex indices");
   std::vector<int> out(static_cast<size_t>(t.shape(0)));
   for (size_t i = 0; i < out.size(); ++i) {
     const int64_t v = t.data()[i];
     if (v < 0 || v > INT32_MAX)
-      throw py::value_error("constrained: index " + std::to_string(v) + " is negative or too large");
+      throw py::value_error(what + ": index " + std::to_string(v) + " is negative or too large");
     out[i] = static_cast<int>(v);
   }
   return out;
@@ -199,6 +204,48 @@ PYBIND11_MODULE(_arap_native, m) {
                (s.converged ? " converged>" : ">");
       });
 
+  py::class_<arap::ConstraintSet>(m, "ConstraintSet",
+                                  "Constrained vertices by the rules of arap/constraints.h (README, 'Constraints').")
+      .def_property_readonly(
+          "constrained",
+          [](const arap::ConstraintSet& s) {
+            py::array_t<int64_t> a(static_cast<py::ssize_t>(s.constrained.size()));
+            std::copy(s.constrained.begin(), s.constrained.end(), a.mutable_data());
+            return a;
+          },
+          "int64 vertex indices for Solver.bind(): the fixed ones first, then each kept handle's block")
+      .def_readonly("fixed_count", &arap::ConstraintSet::fixed_count)
+      .def_property_readonly(
+          "handles",
+          [](const arap::ConstraintSet& s) {
+            py::list out;
+            for (const arap::HandleBlock& b : s.handles) out.append(py::make_tuple(b.handle, b.start, b.stop));
+            return out;
+          },
+          "(handle, start, stop) per kept handle: rows [start, stop) of `constrained` follow input handle `handle`")
+      .def_readonly("warnings", &arap::ConstraintSet::warnings);
+
+  m.def(
+      "constraint_set",
+      [](int vertex_count, const py::object& fixed, const std::string& fixed_label, const py::list& handles) {
+        arap::ConstraintGroup fixed_group{fixed_label, {}};
+        if (!fixed.is_none()) fixed_group.vertices = to_indices(fixed, fixed_label);
+        std::vector<arap::ConstraintGroup> groups;
+        for (const py::handle h : handles) {
+          const py::tuple pair = py::reinterpret_borrow<py::tuple>(h);
+          if (!py::isinstance<py::tuple>(h) || pair.size() != 2)
+            throw py::type_error("handles: expected (label, vertex indices) pairs");
+          const std::string label = py::cast<std::string>(pair[0]);
+          groups.push_back({label, to_indices(pair[1], label)});
+        }
+        py::gil_scoped_release release;
+        return arap::make_constraint_set(vertex_count, fixed_group, groups);
+      },
+      py::arg("vertex_count"), py::arg("fixed"), py::arg("fixed_label"), py::arg("handles"),
+      "Fixed first, then each handle's vertices; fixed wins, the first handle wins; warnings name the group\n"
+      "that took the vertices. handles: a list of (label, vertex indices); labels name the groups in messages\n"
+      "(\"handle 'Arm'\", \"the fixed group 'Feet'\").");
+
   py::class_<arap::Solver>(m, "Solver", "Bind once per mesh and constraint set, then solve many times.")
       .def(py::init<>())
       .def(
@@ -208,7 +255,7 @@ PYBIND11_MODULE(_arap_native, m) {
              int anderson_window, py::object stiffness, const std::string& method) {
             PointsView r = view_points(rest, "rest");
             arap::Triangles tri = to_triangles(triangles);
-            std::vector<int> con = to_indices(constrained);
+            std::vector<int> con = to_indices(constrained, "constrained");
             std::vector<double> stiff;
             if (!stiffness.is_none()) {
               py::array_t<double, py::array::c_style | py::array::forcecast> a(stiffness);

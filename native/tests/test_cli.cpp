@@ -44,7 +44,7 @@ TEST_F(Scenario, ParsesMeshPathHandlesAndMatrices) {
   arap::Points rest(5, 3);
   rest << 0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 1, 2, 3, 4;
   const arap::io::Constraints c = arap::io::build_constraints(rest, s.fixed, s.handles);
-  EXPECT_EQ(c.indices, (std::vector<int>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(c.constrained, (std::vector<int>{0, 1, 2, 3, 4}));
   EXPECT_EQ(c.fixed_count, 2);
   EXPECT_TRUE(c.warnings.empty());
   EXPECT_EQ(c.targets.row(1), rest.row(1));                       // fixed: at rest
@@ -59,10 +59,29 @@ TEST_F(Scenario, FixedWinsOverHandleWithAWarning) {
   h.vertices = {1, 2, 3};
   h.translate = Eigen::Vector3d(1, 0, 0);
   const arap::io::Constraints c = arap::io::build_constraints(rest, {1, 1, 0}, {h});
-  EXPECT_EQ(c.indices, (std::vector<int>{1, 0, 2, 3}));  // repeats ignored, vertex 1 stays fixed
+  EXPECT_EQ(c.constrained, (std::vector<int>{1, 0, 2, 3}));  // repeats ignored, vertex 1 stays fixed
   EXPECT_EQ(c.targets.row(0), rest.row(1));
   ASSERT_EQ(c.warnings.size(), 1u);
   EXPECT_NE(c.warnings[0].find("fixed"), std::string::npos);
+}
+
+// The rule of arap/constraints.h through the scenario layer: the first handle
+// keeps a shared vertex (its target), the later one is ignored once it has
+// none of its own, and the warnings name handle 0.
+TEST_F(Scenario, AVertexInTwoHandlesFollowsTheFirst) {
+  arap::Points rest(4, 3);
+  rest << 0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0;
+  arap::io::Handle first, second;
+  first.vertices = {1, 2};
+  first.translate = Eigen::Vector3d(0, 0, 1);
+  second.vertices = {2, 3};
+  second.translate = Eigen::Vector3d(0, 0, -1);
+  const arap::io::Constraints c = arap::io::build_constraints(rest, {0}, {first, second});
+  EXPECT_EQ(c.constrained, (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_EQ(c.targets(2, 2), 1.0);   // vertex 2 follows handle 0
+  EXPECT_EQ(c.targets(3, 2), -1.0);  // vertex 3 is handle 1's own
+  ASSERT_EQ(c.warnings.size(), 1u);
+  EXPECT_EQ(c.warnings[0], "Handle 1: 1 of its vertices are also in handle 0 and follow that one");
 }
 
 TEST_F(Scenario, ErrorsAreTyped) {
@@ -76,13 +95,6 @@ TEST_F(Scenario, ErrorsAreTyped) {
     EXPECT_EQ(e.code(), arap::ErrorCode::IndexOutOfRange);
   }
   h.vertices = {1};
-  arap::io::Handle h2 = h;
-  try {
-    arap::io::build_constraints(rest, {}, {h, h2});
-    FAIL();
-  } catch (const arap::Error& e) {
-    EXPECT_EQ(e.code(), arap::ErrorCode::DuplicateConstraint);
-  }
   h.matrix(0, 0) = std::numeric_limits<double>::infinity();
   try {
     arap::io::build_constraints(rest, {}, {h});
@@ -241,6 +253,20 @@ TEST_F(Cli, ScenarioWithMatrixHandleAndOverlapWarning) {
     EXPECT_LT((out.vertices.row(i) - Eigen::RowVector3d(1 - p.y(), p.x(), p.z())).norm(), 1e-5) << i;
   }
   EXPECT_LT((out.vertices.row(fixed_[0]) - bar.vertices.row(fixed_[0])).norm(), 1e-9);
+}
+
+// A vertex in two handles follows the first (it was an error before issue 13):
+// the run succeeds, the warning names handle 0, the vertex lands on handle 0's target.
+TEST_F(Cli, AVertexInTwoHandlesFollowsTheFirstWithAWarning) {
+  const auto bar = make_bar_files("bar.off");
+  write("second.txt", join({handle_[0], handle_[1]}));
+  const Result r = run("bar.off --fixed fixed.txt --handle handle.txt --translate 0,0,1 --handle second.txt "
+                       "--translate 0,0,-1 --iterations 3 --tolerance 0 --output out.off --quiet");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err, "arap-deform: warning: Handle 1: 2 of its vertices are also in handle 0 and follow that one\n"
+                   "arap-deform: warning: Handle 1 has no vertices of its own: ignored\n");
+  const arap::io::PolygonMesh out = arap::io::read_mesh(path("out.off"));
+  EXPECT_NEAR(out.vertices(handle_[0], 2), bar.vertices(handle_[0], 2) + 1, 1e-9);
 }
 
 TEST_F(Cli, KeepsPolygonsAndRotatesHandles) {
