@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "arap/errors.h"
+#include "arap/options.h"
 #include "arap/io/mesh_io.h"
 #include "arap/io/polygons.h"
 #include "arap/procedural.h"
@@ -293,6 +294,27 @@ TEST_F(Cli, HelpExitsZero) {
   const Result r = run("--help");
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.out.find("fixed wins"), std::string::npos);
+  EXPECT_NE(r.out.find("the first handle wins"), std::string::npos);
+}
+
+// The flags take their limits and messages from arap::option_specs(), the
+// limits the library and the add-on use: the bounds themselves are accepted.
+TEST_F(Cli, OptionLimitsAreTheLibrarys) {
+  const auto bar = make_bar_files();
+  const std::string ok = "bar.obj --fixed fixed.txt --handle handle.txt --translate 1,0,0 -q --output out.obj";
+  Result r = run(ok + " --method anderson --anderson 20 --threads 64 --tolerance 1 --iterations 1");
+  EXPECT_EQ(r.code, 0) << r.err;
+  // No iteration: the first guess (the rest shape with the handle moved) is written.
+  r = run(ok + " --iterations 0");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const arap::io::PolygonMesh out = arap::io::read_mesh(path("out.obj"));
+  for (int v : {handle_[0], fixed_[0]})
+    EXPECT_NEAR(out.vertices(v, 0), bar.vertices(v, 0) + (v == handle_[0] ? 1 : 0), 1e-6);
+  r = run(ok + " --anderson 21");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "arap-deform: --anderson expects " + arap::option_limits(arap::option_spec("anderson_window")) +
+                       ", got '21' (see --help)\n");
+  EXPECT_NE(r.err.find("between 0 and 20"), std::string::npos);
 }
 
 TEST_F(Cli, BadArgumentsExitTwo) {
@@ -308,7 +330,9 @@ TEST_F(Cli, BadArgumentsExitTwo) {
   expect_bad_input("bar.obj --fixed nothere.txt");
   expect_bad_input("bar.obj " + ok + " --bogus");
   expect_bad_input("bar.obj " + ok + " --iterations abc");
-  expect_bad_input("bar.obj " + ok + " --iterations 0");
+  expect_bad_input("bar.obj " + ok + " --iterations 1000001");
+  expect_bad_input("bar.obj " + ok + " --tolerance 2");
+  expect_bad_input("bar.obj " + ok + " --method anderson --anderson 21");
   expect_bad_input("bar.obj " + ok + " --weights nonsense");
   expect_bad_input("bar.obj " + ok + " --init sideways");
   expect_bad_input("bar.obj " + ok + " --tolerance nan");

@@ -28,6 +28,23 @@ struct MeshReport {
   int nonmanifold_edges = 0;
 };
 
+// Every field of MeshReport by name, in declaration order: the one list the
+// command line's JSON report and the Python module's MeshReport read.
+struct MeshReportField {
+  const char* name;
+  int MeshReport::*member;
+};
+inline constexpr MeshReportField kMeshReportFields[] = {
+    {"vertices", &MeshReport::vertices},
+    {"triangles", &MeshReport::triangles},
+    {"degenerate_triangles", &MeshReport::degenerate_triangles},
+    {"isolated_vertices", &MeshReport::isolated_vertices},
+    {"components", &MeshReport::components},
+    {"unconstrained_components", &MeshReport::unconstrained_components},
+    {"unconstrained_vertices", &MeshReport::unconstrained_vertices},
+    {"nonmanifold_edges", &MeshReport::nonmanifold_edges},
+};
+
 // A triangle is degenerate when twice its area is below this fraction of the
 // square of its longest edge: its smallest angle is then below ~1e-12 radians
 // and its cotangents would overflow the weights.

@@ -83,7 +83,6 @@ class Solver {
   int vertex_count() const;
   const std::vector<int>& constrained() const;
   const MeshReport& mesh_report() const;
-  double bind_ms() const;
   const BindStats& bind_stats() const;
   // Nonzeros of the Cholesky factor of the free block (memory and solve cost follow it).
   long factor_nonzeros() const;

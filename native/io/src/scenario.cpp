@@ -8,6 +8,7 @@
 
 #include "arap/errors.h"
 #include "arap/io/files.h"
+#include "arap/io/numbers.h"
 
 namespace arap::io {
 namespace {
@@ -132,11 +133,9 @@ std::vector<int> read_index_file(const std::string& path) {
   std::vector<int> out;
   std::string token;
   while (in >> token) {
-    long long v = 0;
-    bool ok = !token.empty() && token.size() <= 10;
-    for (char c : token) ok = ok && c >= '0' && c <= '9';
-    if (ok) v = std::stoll(token);
-    if (!ok || v > INT_MAX) throw FileError(path + ": '" + token.substr(0, 20) + "' is not a vertex index");
+    long long v = -1;
+    if (token[0] < '0' || token[0] > '9' || !parse_integer(token, v) || v > INT_MAX)
+      throw FileError(path + ": '" + token.substr(0, 20) + "' is not a vertex index");
     out.push_back(static_cast<int>(v));
   }
   return out;
