@@ -29,7 +29,7 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from . import constraints, engine, meshio
+from . import bake, constraints, engine, meshio
 from .constraints import SetupError
 
 FRAME_BUDGET_MS = 30.0      # iterations per viewport update before the UI gets control back
@@ -56,13 +56,16 @@ class AutoPoser:
         self.written = None      # pose key of the mesh's current coordinates
         self.pending = None      # pose key being solved across updates (viewport budget)
         self.iterations = 0      # spent on the pending pose
-        self.max_iterations = obj.arap.iterations   # per pose, as Deform
+        self.max_iterations = max(obj.arap.iterations, bake.DEFAULT_ITERATIONS)   # per pose
         self.ms_per_iteration = 1.0
         self.current = None      # handle transforms of the solver's current state
+        self.state_key = None    # the pose key the solver's current state belongs to
+        self.by_frame = {}       # frame -> key of its last settled pose (the next frame starts there)
         self.warnings = list(self.problem.setup.warnings)
 
     def pose(self, obj, depsgraph):
-        """(key, object-local handle transforms) of the evaluated scene."""
+        """(key, object-local handle transforms) of the evaluated scene; the
+        key is the frame and the world matrices of the object and the Empties."""
         mats = []
         for h in self.problem.setup.handles:
             if not constraints.empty_is_alive(h.empty, None):
@@ -70,7 +73,8 @@ class AutoPoser:
             mats.append(constraints.matrix_to_numpy(h.empty.evaluated_get(depsgraph).matrix_world))
         obj_matrix = constraints.matrix_to_numpy(obj.evaluated_get(depsgraph).matrix_world)
         transforms = constraints.handle_transforms(self.problem.setup, obj_matrix, mats)
-        key = np.concatenate([obj_matrix.ravel()] + [m.ravel() for m in mats]).tobytes()
+        key = (depsgraph.scene.frame_current,
+               np.concatenate([obj_matrix.ravel()] + [m.ravel() for m in mats]).tobytes())
         return key, transforms
 
     def update(self, obj, depsgraph, budget_ms):
@@ -85,7 +89,7 @@ class AutoPoser:
             self._write(hit[0], key)
             return True
         if self.pending != key:
-            self._start_from_nearest(transforms)
+            self._warm_start(key, transforms)
             self.pending, self.iterations = key, 0
         targets = constraints.fill_targets(self.problem.setup, self.problem.rest_constrained, transforms,
                                            self.problem.targets)
@@ -110,9 +114,22 @@ class AutoPoser:
             self._remember(key, self.buffer.copy(), transforms)
         return settled
 
+    def _warm_start(self, key, transforms):
+        """Where a new pose starts from. The previous frame's settled pose when
+        there is one: played frames chain as a bake's do (the same poses, in a
+        non-convex problem where another start can settle elsewhere); else the
+        cached pose whose handles were nearest, or the solver's current state
+        when that is nearer."""
+        previous = self.by_frame.get(key[0] - 1)
+        if previous is not None and previous in self.cache:
+            if self.state_key != previous:
+                self.solver.set_positions(self.cache[previous][0].reshape(-1, 3).astype(np.float64))
+        else:
+            self._start_from_nearest(transforms)
+        self.state_key = key
+        self.current = [t.copy() for t in transforms]
+
     def _start_from_nearest(self, transforms):
-        """Warm start from the cached pose whose handles were nearest, or from
-        the solver's current state (an unsettled pose) when that is nearer."""
         def distance(other):
             return sum(float(np.abs(a - b).sum()) for a, b in zip(transforms, other))
 
@@ -124,10 +141,10 @@ class AutoPoser:
                 best, best_distance = positions, d
         if best is not None:
             self.solver.set_positions(best.reshape(-1, 3).astype(np.float64))
-        self.current = [t.copy() for t in transforms]
 
     def _remember(self, key, positions, transforms):
         self.cache[key] = (positions, [t.copy() for t in transforms])
+        self.by_frame[key[0]] = key
         self.cache_bytes += positions.nbytes
         while self.cache_bytes > CACHE_BYTES and len(self.cache) > 1:
             old = self.cache.pop(next(iter(self.cache)))

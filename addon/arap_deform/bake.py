@@ -10,7 +10,7 @@
 Each frame: scene.frame_set(f), read the evaluated world matrices of the
 object and of the handle empties (keyframes, constraints and drivers all
 count), solve warm-started from the previous frame until the energy stops
-dropping (relative change <= tolerance, default 1e-12), keep the float32
+dropping (the object's tolerance, as Auto mode), keep the float32
 result. Nothing in the scene changes before every frame is solved (a .pc2 is
 streamed to a temporary file renamed at the end), so a cancelled bake changes
 nothing.
@@ -49,9 +49,11 @@ PROP_BASIS = "arap_bake_basis"          # the Basis key was created by the bake
 PROP_ACTION = "arap_bake_action"        # the shape-key action was created by the bake
 PROP_MUTED = "arap_bake_muted_live"     # the "ARAP" key was muted by the bake
 
+# Each frame is solved as Auto mode solves a pose (auto.py): the object's method and
+# tolerance, each frame starting from the previous one, so baked frames and the frames
+# Auto mode plays are the same poses.
 DEFAULT_ITERATIONS = 2000    # per frame, an upper bound: frames stop on the tolerance
-DEFAULT_TOLERANCE = 1e-12    # relative energy change that counts as converged (see bake_shape_keys)
-DEFAULT_ANDERSON = 5         # Anderson window (energy-safeguarded, see solver.cpp)
+DEFAULT_ANDERSON = 5         # Anderson window, when the object's method is Anderson
 
 __all__ = ("BakeResult", "Baker", "bake_shape_keys", "bake_pc2", "clear_bake", "PC2Writer", "read_pc2",
            "key_name", "is_baked")
@@ -149,10 +151,9 @@ class Baker:
                          stiffness=constraints.stiffness_of(obj))
         self.solver.threads = 1  # reductions in a fixed order: identical bakes
         self.solver.max_iterations = iterations or DEFAULT_ITERATIONS
-        self.solver.tolerance = DEFAULT_TOLERANCE if tolerance is None else tolerance
+        self.solver.tolerance = s.tolerance if tolerance is None else tolerance
         self.solver.anderson_window = DEFAULT_ANDERSON if anderson is None else anderson
-        # The bake keeps the method its figures were measured with (README, "Animation bake").
-        self.solver.method = "anderson" if self.solver.anderson_window > 0 else "local-global"
+        self.solver.method = engine.METHOD_NAMES[s.method]
         self.solver.cold_start = engine.INIT_NAMES[s.init]
         self.solver.init = "warm"
         self.rest_constrained = self.rest64[self.setup.constrained]
@@ -275,9 +276,9 @@ def bake_shape_keys(obj, start, end, scene=None, iterations=None, tolerance=None
 
     Each key holds the solved pose of its frame and is keyed to 1 at that frame
     and 0 at the frames next to it. iterations: at most this many per frame
-    (default 2000); tolerance: relative energy change that stops a frame
-    (default 1e-12: the float64 noise floor, i.e. a stationary point);
-    anderson: Anderson window (5, 0 = plain local/global). Replaces a previous
+    (default 2000); tolerance: the solver's tolerance for a frame (default:
+    the object's, as Auto mode); the object's method solves (anderson: the
+    window when that is Anderson). Replaces a previous
     bake; the Basis and base mesh are not modified. Returns a BakeResult
     (energies, iterations, ms per frame). Raises SetupError on a bad set-up,
     with the object unchanged.
