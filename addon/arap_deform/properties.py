@@ -17,7 +17,7 @@ IDENTITY16 = (1.0, 0.0, 0.0, 0.0,
               0.0, 0.0, 1.0, 0.0,
               0.0, 0.0, 0.0, 1.0)
 
-# Enum identifiers -> names understood by the native module.
+# Enum identifiers; problem.py maps them to the native module's names (WEIGHT_NAMES, METHOD_NAMES, INIT_NAMES).
 WEIGHT_ITEMS = (
     ('COTAN_CLAMPED', "Cotangent (clamped)",
      "Cotangent weights with negative cotangents set to zero: robust on obtuse triangles"),
