@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,9 @@ const Case kCases[] = {
     {"Ellipsoid", [] { return procedural::make_ellipsoid(600, Eigen::Vector3d(2.0, 0.6, 0.4)); }},
     {"Torus", [] { return procedural::make_torus(24, 12, 1.0, 0.3); }},
 };
+
+// Test names and failure messages name the mesh, not the bytes of the Case.
+void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
 
 class SolverProperties : public ::testing::TestWithParam<Case> {
  protected:
