@@ -1,6 +1,7 @@
 // Settings of the ARAP engine, and their one definition (option_specs()):
-// names, defaults and limits that check_options(), the command line, the
-// Python module and the Blender add-on all read from here.
+// names, defaults and limits that check_options(), the command line and the
+// Python module (OPTIONS) read from here; a Blender test checks the add-on's
+// settings against OPTIONS (same defaults, limits within these).
 #pragma once
 
 #include <string>
