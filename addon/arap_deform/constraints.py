@@ -113,15 +113,10 @@ def gather(obj, scene=None):
         if not empty_is_alive(h.empty, scene):
             raise SetupError("The empty of handle '%s' was deleted: pick another one" % label)
 
-    native = native_loader.native()
-    try:
-        chosen = native.constraint_set(len(obj.data.vertices), members[s.fixed_group] if s.fixed_group else None,
-                                       "the fixed group '%s'" % s.fixed_group,
-                                       [("handle '%s'" % h.group, members[h.group]) for h in s.handles])
-    except native.ArapError as exc:
-        if exc.code != "no constraints":
-            raise
-        raise SetupError("No vertex is constrained: every handle's vertices are taken by the fixed group") from None
+    # Every group named here has vertices (checked above), so something is always held.
+    chosen = native_loader.native().constraint_set(
+        len(obj.data.vertices), members[s.fixed_group] if s.fixed_group else None,
+        "the fixed group '%s'" % s.fixed_group, [("handle '%s'" % h.group, members[h.group]) for h in s.handles])
     handles = []
     for index, start, stop in chosen.handles:
         h = s.handles[index]
