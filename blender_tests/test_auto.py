@@ -5,6 +5,7 @@ import unittest
 
 import bpy
 import numpy as np
+from mathutils import Matrix
 
 import arap_test_utils as U
 from arap_deform import api, auto, bake
@@ -78,6 +79,61 @@ class Auto(unittest.TestCase):
         api.set_auto(self.obj, False)
         api.deform(self.obj, tolerance=self.obj.arap.tolerance)
         np.testing.assert_allclose(spread, U.coords(self.obj), atol=1e-3 * scale_of(spread))
+
+    def assert_top_follows_the_empty(self, bind):
+        """The handle's vertices moved by the Empty's motion since the bind (an affine map)."""
+        motion = np.array(self.empty.matrix_world @ bind.inverted())
+        rest_top = np.c_[self.rest3[self.top], np.ones(len(self.top))]
+        expected = rest_top @ motion.T
+        np.testing.assert_allclose(U.coords(self.obj)[self.top], expected[:, :3], atol=1e-4)
+
+    def test_follows_a_driver(self):
+        bind = self.empty.matrix_world.copy()
+        controller = U.add_empty("Controller", Matrix.Translation((0, 0, 0)))
+        fcurve = self.empty.driver_add("location", 0)
+        var = fcurve.driver.variables.new()
+        var.type = 'TRANSFORMS'
+        var.targets[0].id = controller
+        var.targets[0].transform_type = 'LOC_Y'
+        fcurve.driver.expression = "0.5 * var"   # a simple expression: no script auto-run needed
+        api.set_auto(self.obj, True)
+        controller.location.y = 0.8
+        bpy.context.view_layer.update()
+        self.assertAlmostEqual(self.empty.matrix_world.translation.x, 0.4, places=5)
+        self.assert_top_follows_the_empty(bind)
+
+    def test_follows_a_constraint(self):
+        bind = self.empty.matrix_world.copy()
+        target = U.add_empty("Target", bind)
+        copy = self.empty.constraints.new('COPY_LOCATION')
+        copy.target = target
+        api.set_auto(self.obj, True)
+        target.location = (0.3, -0.2, 2.2)
+        bpy.context.view_layer.update()
+        np.testing.assert_allclose(self.empty.matrix_world.translation, (0.3, -0.2, 2.2), atol=1e-6)
+        self.assert_top_follows_the_empty(bind)
+
+    def test_follows_a_posed_bone_the_empty_is_parented_to(self):
+        bind = self.empty.matrix_world.copy()
+        rig = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
+        bpy.context.scene.collection.objects.link(rig)
+        bpy.context.view_layer.objects.active = rig
+        bpy.ops.object.mode_set(mode='EDIT')
+        bone = rig.data.edit_bones.new("Spine")
+        bone.head, bone.tail = (0, 0, -2), (0, 0, 0)
+        bpy.ops.object.mode_set(mode='OBJECT')
+        self.empty.parent, self.empty.parent_type, self.empty.parent_bone = rig, 'BONE', "Spine"
+        bpy.context.view_layer.update()
+        self.empty.matrix_world = bind   # parented where it was: the rest pose is unchanged
+        bpy.context.view_layer.update()
+        api.set_auto(self.obj, True)
+        np.testing.assert_allclose(U.raw_coords(self.obj), self.rest, atol=1e-5)
+        pose_bone = rig.pose.bones["Spine"]
+        pose_bone.rotation_mode = 'XYZ'
+        pose_bone.rotation_euler = (0.25, 0.0, 0.0)   # the bone bends: the Empty swings with it
+        bpy.context.view_layer.update()
+        self.assertGreater((self.empty.matrix_world.translation - bind.translation).length, 0.3)
+        self.assert_top_follows_the_empty(bind)
 
     def test_the_pose_equals_deform(self):
         self.empty.location = (0.5, 0.2, 2.1)
