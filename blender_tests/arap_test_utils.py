@@ -51,8 +51,8 @@ def clear_scene():
         bpy.data.objects.remove(ob)
     for me in list(bpy.data.meshes):
         bpy.data.meshes.remove(me)
-    from arap_deform import engine
-    engine.stop_all_sessions()
+    from arap_deform import engine, sessions
+    sessions.stop_all_sessions()
     engine.clear_cache()
 
 

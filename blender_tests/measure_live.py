@@ -1,4 +1,4 @@
-# Per-frame cost of the Live path, measured through engine.LiveSession (not a test).
+# Per-frame cost of the Live path, measured through live.LiveSession (not a test).
 #
 #   BLENDER_USER_SCRIPTS=<build>/blender_tests/user_scripts \
 #   blender --background --factory-startup -noaudio --python blender_tests/measure_live.py -- [frames] [iterations]

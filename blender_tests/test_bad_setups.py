@@ -106,10 +106,35 @@ class BadSetups(unittest.TestCase):
         both = U.group_where(self.obj, "both", lambda co: co.z > 1.5 or co.z < -1.9)
         self.obj.arap.handles[0].group = "both"
         r = api.deform(self.obj)
-        self.assertTrue(any("Handle 'both'" in w and "fixed group 'bottom'" in w for w in r.warnings), r.warnings)
+        self.assertIn("Handle 'both': %d of its vertices are also in the fixed group 'bottom' and stay fixed"
+                      % len(np.intersect1d(both, self.fixed)), r.warnings)
         rest = self.before.reshape(-1, 3)
         np.testing.assert_array_equal(U.raw_coords(self.obj).reshape(-1, 3)[self.fixed], rest[self.fixed])
         self.assertGreater(len(both), len(self.fixed))
+
+    def test_vertex_in_two_handles_follows_the_first(self):
+        # The core's rule (README, "Constraints: the rules"): the first handle in the list wins,
+        # and the warning names the handle that took the vertices.
+        upper = U.group_where(self.obj, "upper", lambda co: co.z > 1.0)
+        api.add_handle(self.obj, "upper", U.add_empty("Still", Matrix.Translation((0.0, 0.0, 1.3))))
+        rest = self.before.reshape(-1, 3)
+        only_upper = np.setdiff1d(upper, self.top)
+        self.assertGreater(len(only_upper), 0)
+
+        r = api.deform(self.obj)   # 'top' (moved by (0.5, 0, 0.2)) first, then 'upper' (still)
+        self.assertIn("Handle 'upper': %d of its vertices are also in handle 'top' and follow that one"
+                      % len(self.top), r.warnings)
+        out = U.raw_coords(self.obj).reshape(-1, 3)
+        np.testing.assert_allclose(out[self.top], rest[self.top] + (0.5, 0.0, 0.2), atol=1e-5)
+        np.testing.assert_allclose(out[only_upper], rest[only_upper], atol=1e-5)
+
+        self.obj.arap.handles.move(1, 0)   # 'upper' first: it keeps every vertex of 'top'
+        r = api.deform(self.obj)
+        self.assertIn("Handle 'top': %d of its vertices are also in handle 'upper' and follow that one"
+                      % len(self.top), r.warnings)
+        self.assertIn("Handle 'top' has no vertices of its own: ignored", r.warnings)
+        out = U.raw_coords(self.obj).reshape(-1, 3)
+        np.testing.assert_allclose(out[upper], rest[upper], atol=1e-5)
 
     def test_setup_error_from_api(self):
         self.obj.arap.fixed_group = "nope"

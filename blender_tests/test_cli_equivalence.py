@@ -12,7 +12,7 @@ import numpy as np
 from mathutils import Euler, Matrix
 
 import arap_test_utils as U
-from arap_deform import api, engine
+from arap_deform import api, problem
 
 CLI = os.environ.get("ARAP_DEFORM_CLI", "")
 
@@ -63,7 +63,7 @@ class CliEquivalence(unittest.TestCase):
         out = os.path.join(self.tmp, "out.off")
         subprocess.run([CLI, "--scenario", os.path.join(self.tmp, "s.json"), "--iterations", "10",
                         "--tolerance", "1e-6", "--init", "laplacian", "--weights", "cotan-clamped",
-                        "--method", engine.METHOD_NAMES[obj.arap.method], "--output", out, "--quiet"], check=True)
+                        "--method", problem.METHOD_NAMES[obj.arap.method], "--output", out, "--quiet"], check=True)
         api.deform(obj, iterations=10, tolerance=1e-6, init='LAPLACIAN')
         np.testing.assert_allclose(U.coords(obj), read_off_vertices(out), atol=1e-5)
 

@@ -8,7 +8,7 @@ import numpy as np
 from mathutils import Euler, Matrix
 
 import arap_test_utils as U
-from arap_deform import api, engine
+from arap_deform import api, native_loader, problem
 
 
 def posed_empty_matrix():
@@ -27,10 +27,10 @@ class Deform(unittest.TestCase):
         a = np.linalg.inv(m_obj) @ U.np_matrix(empty_now) @ np.linalg.inv(U.np_matrix(empty_bind)) @ m_obj
         constrained = np.concatenate([fixed, handle])
         targets = np.concatenate([rest[fixed], U.apply(a, rest[handle])])
-        s = engine.native().Solver()
+        s = native_loader.native().Solver()
         s.bind(rest, U.triangles(obj), constrained, weights="cotan-clamped", init=init,
                max_iterations=iterations, tolerance=tolerance, anderson_window=obj.arap.acceleration,
-               method=engine.METHOD_NAMES[obj.arap.method])
+               method=problem.METHOD_NAMES[obj.arap.method])
         s.solve(targets)
         return s, rest, constrained, targets
 

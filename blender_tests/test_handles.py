@@ -127,9 +127,9 @@ class PanelAndRedo(unittest.TestCase):
         self.obj, self.empty, self.fixed, self.top = U.bar_with_handle()
 
     def test_an_active_handle_empty_keeps_the_mesh_panel(self):
-        from arap_deform import engine, ui
+        from arap_deform import sessions, ui
         bpy.context.view_layer.objects.active = self.empty
-        self.assertIs(engine.target_mesh(bpy.context), self.obj)
+        self.assertIs(sessions.target_mesh(bpy.context), self.obj)
         self.assertTrue(ui.ARAP_PT_main.poll(bpy.context))
         # ... and the panel's buttons act on that mesh.
         rest = U.coords(self.obj)
@@ -139,7 +139,7 @@ class PanelAndRedo(unittest.TestCase):
         other = bpy.data.objects.new("Unrelated", None)
         bpy.context.scene.collection.objects.link(other)
         bpy.context.view_layer.objects.active = other
-        self.assertIsNone(engine.target_mesh(bpy.context))
+        self.assertIsNone(sessions.target_mesh(bpy.context))
         self.assertFalse(ui.ARAP_PT_main.poll(bpy.context))
 
     def test_solver_settings_in_a_collapsed_sub_panel_with_plain_tooltips(self):

@@ -12,7 +12,7 @@ import numpy as np
 from mathutils import Matrix
 
 import arap_test_utils as U
-from arap_deform import api, engine
+from arap_deform import api, errors, live, native_loader, sessions
 
 
 def tube_arrays():
@@ -33,7 +33,7 @@ class ModuleCalls(unittest.TestCase):
     """The native module called directly with what a script could pass it."""
 
     def setUp(self):
-        self.mod = engine.native()
+        self.mod = native_loader.native()
         self.rest, self.tris, self.constrained = tube_arrays()
         self.solver = self.mod.Solver()
         self.solver.bind(self.rest, self.tris, self.constrained)
@@ -222,7 +222,7 @@ class BlenderSetups(unittest.TestCase):
         def empty_is_the_object():
             self.obj.arap.handles[0].empty = None
 
-        arap_error = engine.native().ArapError
+        arap_error = native_loader.native().ArapError
         cases = [
             ("NaN empty location", nan_empty, (api.SetupError, arap_error), ""),
             ("NaN empty rotation", nan_empty_rotation, (api.SetupError, arap_error), ""),
@@ -248,8 +248,8 @@ class BlenderSetups(unittest.TestCase):
                         call = lambda: api.start_session(self.obj, bpy.context.scene).step()  # noqa: E731
                     msg = self.assert_refused(call, types)
                     self.assertIn(fragment, msg)
-                    self.assertIsNone(engine.session_for(self.obj) if entry == "deform" else None)
-                    engine.stop_all_sessions()
+                    self.assertIsNone(sessions.session_for(self.obj) if entry == "deform" else None)
+                    sessions.stop_all_sessions()
                     self.assert_untouched()
 
     def test_live_step_beyond_float32_leaves_the_last_pose(self):
@@ -261,7 +261,7 @@ class BlenderSetups(unittest.TestCase):
         s.step()
         posed = U.raw_coords(self.obj).copy()
         self.empty.location.x += 1e20
-        with self.assertRaises(engine.native().ArapError):
+        with self.assertRaises(native_loader.native().ArapError):
             s.step()
         self.assertTrue(np.all(np.isfinite(U.raw_coords(self.obj))))
         np.testing.assert_array_equal(U.raw_coords(self.obj), posed)
@@ -302,11 +302,11 @@ class BlenderSetups(unittest.TestCase):
         bm.free()
         self.assertEqual(len(self.obj.data.vertices), n)
         # Applying compares the faces in full; a step does within TOPOLOGY_CHECK_S.
-        with self.assertRaises(engine.SessionError) as cm:
+        with self.assertRaises(errors.SessionError) as cm:
             s.finish()
         self.assertEqual(cm.exception.kind, 'TOPOLOGY')
         self.assertIn("faces changed", str(cm.exception))
-        self.assertIsNone(engine.session_for(self.obj))
+        self.assertIsNone(sessions.session_for(self.obj))
         self.assertNotIn("arap_rest", self.obj.data.attributes)
         s = api.start_session(self.obj, bpy.context.scene)
         bm = bmesh.new()
@@ -315,11 +315,11 @@ class BlenderSetups(unittest.TestCase):
         bm.faces[3].normal_flip()
         bm.to_mesh(self.obj.data)
         bm.free()
-        time.sleep(engine.TOPOLOGY_CHECK_S)
-        with self.assertRaises(engine.SessionError) as cm:
+        time.sleep(live.TOPOLOGY_CHECK_S)
+        with self.assertRaises(errors.SessionError) as cm:
             s.step()
         self.assertEqual(cm.exception.kind, 'TOPOLOGY')
-        engine.stop_session(s)
+        sessions.stop_session(s)
 
     def test_linked_library_mesh_is_refused_and_untouched(self):
         with tempfile.TemporaryDirectory() as folder:

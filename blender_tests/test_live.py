@@ -6,7 +6,7 @@ import numpy as np
 from mathutils import Matrix
 
 import arap_test_utils as U
-from arap_deform import api, engine
+from arap_deform import api, errors, live, sessions
 
 
 def move(empty, dx=0.0, dz=0.0):
@@ -29,7 +29,7 @@ class Live(unittest.TestCase):
         self.assertFalse(np.array_equal(U.raw_coords(self.obj), before))
         s.cancel()
         self.assertTrue(np.array_equal(U.raw_coords(self.obj), before))
-        self.assertIsNone(engine.session_for(self.obj))
+        self.assertIsNone(sessions.session_for(self.obj))
         self.assertNotIn("arap_rest", self.obj.data.attributes)
 
     def test_cancel_restores_the_empties_bit_for_bit(self):
@@ -59,6 +59,23 @@ class Live(unittest.TestCase):
         self.assertNotIn("right-click", text)
         s.cancel()
         self.assertEqual(operators.live_status_text(), "")
+
+    def test_apply_and_cancel_buttons_leave_the_request_with_the_operators(self):
+        # The panel's buttons call operators; the request waits in operators.py for the Live
+        # modal operator (the session itself knows nothing of the UI).
+        from arap_deform import operators
+        s = api.start_session(self.obj, bpy.context.scene)
+        try:
+            bpy.context.view_layer.objects.active = self.obj
+            self.assertEqual(bpy.ops.object.arap_live_apply(), {'FINISHED'})
+            self.assertEqual(operators._end_requests.get(s), 'APPLY')
+            self.assertEqual(bpy.ops.object.arap_live_cancel(), {'FINISHED'})
+            self.assertEqual(operators._end_requests.get(s), 'CANCEL')
+            self.assertFalse(hasattr(s, "request"))
+        finally:
+            operators._end_requests.pop(s, None)
+            s.cancel()
+        self.assertFalse(bpy.ops.object.arap_live_apply.poll())   # no session: nothing to apply
 
     def test_an_empty_scaled_to_nothing_is_reported(self):
         s = api.start_session(self.obj, bpy.context.scene)
@@ -98,7 +115,7 @@ class Live(unittest.TestCase):
         s.cancel()   # and Cancel still brings back the state before Live
         np.testing.assert_array_equal(U.raw_coords(obj), rest)
         np.testing.assert_allclose(U.np_matrix(empty.matrix_world), U.np_matrix(start), atol=1e-6)
-        self.assertIsNone(engine.session_for(obj))
+        self.assertIsNone(sessions.session_for(obj))
 
     def test_cancel_restores_shape_keys(self):
         self.obj.shape_key_add(name="Basis")
@@ -184,7 +201,7 @@ class Live(unittest.TestCase):
         self.assertEqual(s.solver.time_budget_ms, 5.0)  # the first update is a move
         if not s.settled:
             s.step()  # nothing moved: a settling update
-            self.assertEqual(s.solver.time_budget_ms, 5.0 * engine.SETTLE_BUDGET_FACTOR)
+            self.assertEqual(s.solver.time_budget_ms, 5.0 * live.SETTLE_BUDGET_FACTOR)
         move(self.empty, dx=0.2)
         s.step()
         self.assertEqual(s.solver.time_budget_ms, 5.0)
@@ -196,7 +213,7 @@ class Live(unittest.TestCase):
         move(self.empty, dx=0.3)
         s.step()
         bpy.data.objects.remove(self.empty)
-        with self.assertRaises(engine.SessionError) as cm:
+        with self.assertRaises(errors.SessionError) as cm:
             s.step()
         self.assertEqual(cm.exception.kind, 'EMPTY')
         self.assertIn("top", str(cm.exception))
@@ -207,7 +224,7 @@ class Live(unittest.TestCase):
         s = api.start_session(self.obj, bpy.context.scene)
         s.step()
         self.obj.data.vertices.add(1)
-        with self.assertRaises(engine.SessionError) as cm:
+        with self.assertRaises(errors.SessionError) as cm:
             s.step()
         self.assertEqual(cm.exception.kind, 'TOPOLOGY')
         with self.assertRaises(ValueError):
@@ -218,7 +235,7 @@ class Live(unittest.TestCase):
         s.step()
         bpy.ops.object.mode_set(mode='EDIT')
         try:
-            with self.assertRaises(engine.SessionError) as cm:
+            with self.assertRaises(errors.SessionError) as cm:
                 s.step()
             self.assertEqual(cm.exception.kind, 'MODE')
         finally:

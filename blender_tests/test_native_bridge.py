@@ -9,64 +9,90 @@ import unittest
 
 import numpy as np
 
-from arap_deform import engine
+from arap_deform import errors, native_loader
 
 
 class NativeBridge(unittest.TestCase):
     def test_module_matches_addon(self):
-        mod = engine.native()
-        self.assertEqual(mod.__version__, engine.addon_version())
+        mod = native_loader.native()
+        self.assertEqual(mod.__version__, native_loader.addon_version())
         self.assertEqual(tuple(mod.PYTHON_VERSION), tuple(sys.version_info[:2]))
         self.assertTrue(mod.PYTHON_ABI.startswith(sys.implementation.cache_tag), mod.PYTHON_ABI)
 
+    def test_settings_agree_with_the_core_options(self):
+        # The core defines each option's default and limits (arap::option_specs(), OPTIONS); the
+        # object's settings start at those defaults and never allow a value the core refuses.
+        from arap_deform import problem, properties
+        options = native_loader.native().OPTIONS
+        props = properties.ARAP_PG_settings.__annotations__
+
+        def keywords(name):
+            return props[name].keywords
+
+        for setting, option in (("iterations", "max_iterations"), ("live_iterations", "max_iterations"),
+                                ("tolerance", "tolerance"), ("acceleration", "anderson_window"),
+                                ("threads", "threads")):
+            kw, spec = keywords(setting), options[option]
+            self.assertGreaterEqual(kw["min"], spec["min"], setting)
+            self.assertLessEqual(kw["max"], spec["max"], setting)
+            if setting != "live_iterations":   # Live's cap per update is its own setting
+                self.assertEqual(kw["default"], spec["default"], setting)
+        for setting, option, names in (("method", "method", problem.METHOD_NAMES),
+                                       ("weights", "weights", problem.WEIGHT_NAMES),
+                                       ("init", "init", problem.INIT_NAMES)):
+            kw = keywords(setting)
+            self.assertEqual(names[kw["default"]], options[option]["default"], setting)
+            self.assertEqual(sorted(names), sorted(item[0] for item in kw["items"]), setting)
+            self.assertLessEqual(set(names.values()), set(options[option]["choices"]), setting)
+
     def test_version_mismatch_says_what_to_rebuild(self):
-        mod = engine.native()
+        mod = native_loader.native()
         saved = mod.__version__
         try:
-            engine._native = None
+            native_loader._native = None
             mod.__version__ = "0.0.0-other"
-            with self.assertRaises(engine.NativeModuleError) as cm:
-                engine.native()
+            with self.assertRaises(native_loader.NativeModuleError) as cm:
+                native_loader.native()
             self.assertIn("0.0.0-other", str(cm.exception))
             self.assertIn("Rebuild", str(cm.exception))
         finally:
             mod.__version__ = saved
-            engine._native = None
-        self.assertIs(engine.native(), mod)
+            native_loader._native = None
+        self.assertIs(native_loader.native(), mod)
 
     def test_python_mismatch_says_what_to_rebuild(self):
-        mod = engine.native()
+        mod = native_loader.native()
         saved = mod.PYTHON_VERSION
         try:
-            engine._native = None
+            native_loader._native = None
             mod.PYTHON_VERSION = (3, 99)
-            with self.assertRaises(engine.NativeModuleError) as cm:
-                engine.native()
+            with self.assertRaises(native_loader.NativeModuleError) as cm:
+                native_loader.native()
             self.assertIn("Python 3.99", str(cm.exception))
             self.assertIn("-DARAP_PYTHON_VERSION=%d.%d" % sys.version_info[:2], str(cm.exception))
         finally:
             mod.PYTHON_VERSION = saved
-            engine._native = None
-        engine.native()
+            native_loader._native = None
+        native_loader.native()
 
     def test_no_module_for_this_python_names_the_ones_shipped(self):
         # A copy of the add-on whose only module is for another Python (3.99):
         # the error names the Pythons it has and what to rebuild.
-        here = os.path.dirname(engine.__file__)
+        here = os.path.dirname(native_loader.__file__)
         with tempfile.TemporaryDirectory() as tmp:
             probe = os.path.join(tmp, "arap_abi_probe")
             os.makedirs(probe)
-            for name in ("__init__.py", "engine.py", "constraints.py", "meshio.py", "blender_manifest.toml"):
+            for name in ("__init__.py", "native_loader.py", "blender_manifest.toml"):
                 shutil.copy(os.path.join(here, name), probe)
             with open(os.path.join(probe, "__init__.py"), "w") as f:
-                f.write("")  # skip registration: only engine.native() is under test
+                f.write("")  # skip registration: only native_loader.native() is under test
             shutil.copy(glob.glob(os.path.join(here, "_arap_native*"))[0],
                         os.path.join(probe, "_arap_native.cpython-399-x86_64-linux-gnu.so"))
             sys.path.insert(0, tmp)
             try:
-                probe_engine = importlib.import_module("arap_abi_probe.engine")
-                with self.assertRaises(probe_engine.NativeModuleError) as cm:
-                    probe_engine.native()
+                probe_loader = importlib.import_module("arap_abi_probe.native_loader")
+                with self.assertRaises(probe_loader.NativeModuleError) as cm:
+                    probe_loader.native()
             finally:
                 sys.path.remove(tmp)
                 for name in [n for n in sys.modules if n.startswith("arap_abi_probe")]:
@@ -81,17 +107,17 @@ class NativeBridge(unittest.TestCase):
         return rest, tris
 
     def test_arap_error_and_code(self):
-        mod = engine.native()
+        mod = native_loader.native()
         rest, tris = self._square()
         s = mod.Solver()
         with self.assertRaises(mod.ArapError) as cm:
             s.bind(rest, tris, np.array([0, 0]))
         self.assertTrue(cm.exception.code)
         self.assertTrue(str(cm.exception))
-        self.assertIsNotNone(engine.user_error(cm.exception))
+        self.assertIsNotNone(errors.user_error(cm.exception))
 
     def test_float32_and_float64_in_and_out(self):
-        mod = engine.native()
+        mod = native_loader.native()
         rest, tris = self._square()
         for dtype in (np.float32, np.float64):
             s = mod.Solver()

@@ -12,7 +12,7 @@ import numpy as np
 from mathutils import Matrix
 
 import arap_test_utils as U
-from arap_deform import api, auto, bake, engine
+from arap_deform import api, auto, bake, native_loader, solver_cache
 
 BIND = Matrix.Translation((0.0, 0.0, 2.0))   # the Empty's bind pose (U.bar_with_handle)
 POSE = Matrix.Translation((1.6, 0.0, 0.9))   # the top of the 4-high bar pulled sideways and down
@@ -57,7 +57,7 @@ class VolumeGlobal(unittest.TestCase):
         self.assertAlmostEqual(kept, 1.0, delta=1e-5)   # float32 coordinates
         self.assertFalse([w for w in r.warnings if "Volume" in w], r.warnings)
         # The same as the native module bound with volume="global" directly.
-        s = engine.native().Solver()
+        s = native_loader.native().Solver()
         rest = api.rest_positions(self.obj).astype(np.float64).reshape(-1, 3)
         constrained = np.concatenate([self.fixed, self.top])
         targets = np.concatenate([rest[self.fixed],
@@ -121,7 +121,7 @@ class VolumeGlobal(unittest.TestCase):
         obj = bpy.data.objects["Bar"]
         self.assertEqual((obj.arap.volume, obj.arap.infill_resolution), ('INFILL', 7))
         api.bind(obj)
-        solver = engine._cache[obj.as_pointer()][1]
+        solver = solver_cache._cache[obj.as_pointer()][1]
         self.assertEqual((solver.volume, solver.infill_resolution), ("infill", 7))
         self.assertGreater(solver.mesh_report()["infill_cells"], 0)
         self.obj = obj
@@ -129,7 +129,7 @@ class VolumeGlobal(unittest.TestCase):
 
 class VolumeInTheModule(unittest.TestCase):
     def test_bad_volume_arguments_raise_arap_errors(self):
-        mod = engine.native()
+        mod = native_loader.native()
         U.clear_scene()
         obj, _empty, fixed, top = U.bar_with_handle()
         rest, tris, constrained = U.coords(obj), U.triangles(obj), np.concatenate([fixed, top])

@@ -41,11 +41,11 @@ def main():
     if module not in bpy.context.preferences.addons:
         print("ERROR: the add-on did not enable; see the messages above")
         sys.exit(1)
-    engine = importlib.import_module(module + ".engine")
-    mod = engine.native()  # raises with what to rebuild when the module does not match
+    native_loader = importlib.import_module(module + ".native_loader")
+    mod = native_loader.native()  # raises with what to rebuild when the module does not match
     bpy.ops.wm.save_userpref()
     print("Installed and enabled arap_deform %s (native %s, %s) from %s"
-          % (engine.addon_version(), mod.__version__, mod.PYTHON_ABI, zip_path))
+          % (native_loader.addon_version(), mod.__version__, mod.PYTHON_ABI, zip_path))
 
 
 main()

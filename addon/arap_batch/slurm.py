@@ -38,7 +38,7 @@ def check_clients():
 
 def artifacts(report_path, rerun=False):
     """(job script, run folder) beside the report; a rerun gets <stem>.rerunK.* so nothing is overwritten."""
-    stem = report_path[:-5] if report_path.endswith(".json") else report_path
+    stem = report_path.removesuffix(".json")
     if rerun:
         k = 1
         while os.path.exists("%s.rerun%d.sbatch" % (stem, k)):

@@ -1,8 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """ARAP Deform: pose a mesh as-rigidly-as-possible with handle empties.
 
-This file only registers. See engine.py for the native bridge, api.py for
-scripting, operators.py / ui.py / properties.py for the Blender side.
+This file only registers. See api.py for scripting, engine.py (Deform),
+live.py (Live), bake.py, auto.py, native_loader.py for the native bridge,
+operators.py / ui.py / properties.py for the Blender side.
 """
 
 bl_info = {
@@ -18,7 +19,8 @@ bl_info = {
 if "bpy" in locals():
     # Script reload (F3 > Reload Scripts): reload submodules in dependency order.
     import importlib
-    for _name in ("meshio", "constraints", "engine", "anim_compat", "api", "bake", "auto", "properties", "operators",
+    for _name in ("native_loader", "errors", "temp_files", "meshio", "constraints", "problem", "solver_cache",
+                  "sessions", "engine", "live", "anim_compat", "api", "bake", "auto", "properties", "operators",
                   "ui", "bake_ops"):
         if _name in locals():
             importlib.reload(locals()[_name])
@@ -56,8 +58,8 @@ def register():
 
 
 def unregister():
-    from . import engine
-    engine.stop_all_sessions()
+    from . import engine, sessions
+    sessions.stop_all_sessions()
     engine.clear_cache()
     operators.live_status_off()
     for mod in reversed(_modules):

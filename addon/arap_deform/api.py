@@ -28,9 +28,11 @@ import importlib
 import bpy
 import numpy as np
 
-from . import constraints, engine
-from .constraints import SetupError
-from .engine import DeformResult, LiveSession, NativeModuleError, SessionError  # noqa: F401
+from . import engine, native_loader, problem, solver_cache
+from .engine import DeformResult  # noqa: F401
+from .errors import SessionError, SetupError  # noqa: F401
+from .live import LiveSession  # noqa: F401
+from .native_loader import NativeModuleError  # noqa: F401
 # Animation bake (see bake.py): shape keys per frame, or a .pc2 point cache read by a Mesh Cache modifier.
 from .bake import bake_pc2, bake_shape_keys, clear_bake, read_pc2  # noqa: F401
 
@@ -43,7 +45,7 @@ __all__ = ("SetupError", "SessionError", "NativeModuleError", "DeformResult", "L
 def __getattr__(name):
     # api.ArapError: the native exception class, resolved when first asked for.
     if name == "ArapError":
-        return engine.native_error_type()
+        return native_loader.native().ArapError
     raise AttributeError(name)
 
 
@@ -106,9 +108,7 @@ def bind(obj, scene=None):
     Returns the native mesh report (dict: components, unconstrained_vertices, ...).
     """
     _registered()
-    problem = engine.Problem(obj, scene)
-    solver, _ms, _cached = engine.bound_solver(obj, problem.rest64, problem.tris, problem.setup.constrained,
-                                               problem.weights, problem.stiffness, problem.volume)
+    solver, _ms, _cached = solver_cache.bound_solver(obj, problem.Problem(obj, scene))
     return solver.mesh_report()
 
 

@@ -29,8 +29,8 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from . import bake, constraints, engine, meshio
-from .constraints import SetupError
+from . import bake, constraints, errors, meshio, problem, sessions
+from .errors import SetupError
 
 FRAME_BUDGET_MS = 30.0      # iterations per viewport update before the UI gets control back
 CACHE_BYTES = 256 << 20     # solved poses kept per object (least recently used dropped first)
@@ -46,10 +46,10 @@ class AutoPoser:
     """One object's bound solver, its cache of solved poses and what was written."""
 
     def __init__(self, obj, scene):
-        self.problem = engine.Problem(obj, scene)
-        self.solver = engine.configured_solver(self.problem, obj.arap, warm=True)
+        self.problem = problem.Problem(obj, scene)
+        self.solver = problem.configured_solver(self.problem, obj.arap, warm=True)
         self.output = meshio.Output(obj, self.problem.output)
-        self.fingerprint = engine.topology_counts(obj.data)
+        self.fingerprint = problem.topology_counts(obj.data)
         self.buffer = np.empty(len(self.problem.rest32), np.float32)
         self.cache = {}          # pose key -> (float32 positions, handle transforms)
         self.cache_bytes = 0
@@ -66,12 +66,7 @@ class AutoPoser:
     def pose(self, obj, depsgraph):
         """(key, object-local handle transforms) of the evaluated scene; the
         key is the frame and the world matrices of the object and the Empties."""
-        mats = []
-        for h in self.problem.setup.handles:
-            if not constraints.empty_is_alive(h.empty, None):
-                raise SetupError("The Empty of handle '%s' was deleted" % h.group)
-            mats.append(constraints.matrix_to_numpy(h.empty.evaluated_get(depsgraph).matrix_world))
-        obj_matrix = constraints.matrix_to_numpy(obj.evaluated_get(depsgraph).matrix_world)
+        obj_matrix, mats = self.problem.evaluated_matrices(obj, depsgraph)
         transforms = constraints.handle_transforms(self.problem.setup, obj_matrix, mats)
         key = (depsgraph.scene.frame_current,
                np.concatenate([obj_matrix.ravel()] + [m.ravel() for m in mats]).tobytes())
@@ -162,7 +157,7 @@ def _settings_objects(scene):
 def _poser(obj, scene):
     uid = obj.as_pointer()
     poser = _posers.get(uid)
-    if poser is not None and poser.fingerprint != engine.topology_counts(obj.data):
+    if poser is not None and poser.fingerprint != problem.topology_counts(obj.data):
         raise SetupError("'%s' changed its vertices or faces: Auto posing stopped" % obj.name)
     if poser is None:
         poser = _posers[uid] = AutoPoser(obj, scene)
@@ -276,7 +271,7 @@ def update_scene(scene, depsgraph=None):
     _busy = True
     try:
         for obj in _settings_objects(scene):
-            if engine.session_for(obj) is not None:
+            if sessions.session_for(obj) is not None:
                 continue  # Live owns the object while it runs
             try:
                 if obj.mode == 'EDIT':
@@ -284,7 +279,7 @@ def update_scene(scene, depsgraph=None):
                                      "turn it on again after editing" % obj.name)
                 settled &= _poser(obj, scene).update(obj, depsgraph, budget)
             except Exception as exc:  # noqa: BLE001 - a handler must never raise; the reason is kept
-                stop(obj, engine.user_error(exc) or "Auto posing stopped: %s" % exc)
+                stop(obj, errors.user_error(exc) or "Auto posing stopped: %s" % exc)
     finally:
         _busy = False
     if not settled:

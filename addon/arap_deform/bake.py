@@ -19,8 +19,9 @@ Rest shape: the one Deform uses (the Basis key, or the "arap_rest" attribute,
 or the mesh), ignoring a Basis key the bake itself created. It is never
 modified: the base mesh and the Basis keep their coordinates.
 
-Determinism: every bake binds a fresh solver (one thread) and clears the
-previous bake first, so baking twice stores identical coordinates.
+Determinism: every bake binds a fresh solver (its results do not depend on
+the thread count, a test checks it) and clears the previous bake first, so
+baking twice stores identical coordinates.
 
 Outputs:
 - shape keys "ARAP_f0001"...: absolute coordinates, relative to the Basis,
@@ -39,8 +40,8 @@ import time
 import bpy
 import numpy as np
 
-from . import anim_compat, constraints, engine, meshio
-from .constraints import SetupError
+from . import anim_compat, constraints, engine, meshio, problem, sessions, temp_files
+from .errors import SetupError
 
 KEY_PREFIX = "ARAP_f"
 MODIFIER_NAME = "ARAP Bake"
@@ -129,7 +130,7 @@ class Baker:
         constraints.check_object(obj)
         if end < start:
             raise SetupError("The bake's end frame (%d) is before its start frame (%d)" % (end, start))
-        if engine.session_for(obj) is not None:
+        if sessions.session_for(obj) is not None:
             raise SetupError("ARAP Live is running on '%s': apply or cancel it before baking" % obj.name)
         self.obj = obj
         self.scene = scene or bpy.context.scene
@@ -138,27 +139,13 @@ class Baker:
         self.measure_gradient = measure_gradient
         self.result = BakeResult(self.frames)
         t0 = time.perf_counter()
-        engine.sync_matrices()
-        self.setup = constraints.gather(obj, self.scene)
-        self.rest32 = bake_rest(obj)
-        self.rest64 = self.rest32.astype(np.float64).reshape(-1, 3)
-        tris = meshio.triangles(obj.data)
-        if len(tris) == 0:
-            raise SetupError("'%s' has no faces: ARAP needs a surface" % obj.name)
-        s = obj.arap
-        self.solver = engine.native().Solver()
-        volume = engine.volume_options(s)
-        self.solver.bind(self.rest64, tris, self.setup.constrained, weights=engine.WEIGHT_NAMES[s.weights],
-                         stiffness=constraints.stiffness_of(obj), **volume)
-        self.solver.threads = 1  # reductions in a fixed order: identical bakes
-        self.solver.max_iterations = iterations or DEFAULT_ITERATIONS
-        self.solver.tolerance = s.tolerance if tolerance is None else tolerance
-        self.solver.anderson_window = DEFAULT_ANDERSON if anderson is None else anderson
-        self.solver.method = engine.solver_method(s)
-        self.solver.cold_start = engine.INIT_NAMES[s.init]
-        self.solver.init = "warm"
-        self.rest_constrained = self.rest64[self.setup.constrained]
-        self.targets = np.empty_like(self.rest_constrained)
+        problem.sync_matrices()
+        self.problem = problem.Problem(obj, self.scene, rest32=bake_rest(obj))
+        self.setup = self.problem.setup
+        self.rest64 = self.problem.rest64
+        self.solver = problem.configured_solver(self.problem, obj.arap, iterations=iterations or DEFAULT_ITERATIONS,
+                                                tolerance=tolerance, warm=True,
+                                                anderson=DEFAULT_ANDERSON if anderson is None else anderson)
         self.free = np.ones(len(self.rest64), bool)
         self.free[self.setup.constrained] = False
         self.pc2_path = pc2_path
@@ -186,15 +173,9 @@ class Baker:
         return self.frames[min(self.index, len(self.frames) - 1)]
 
     def _targets(self):
-        depsgraph = bpy.context.evaluated_depsgraph_get()
-        mats = []
-        for h in self.setup.handles:
-            if not constraints.empty_is_alive(h.empty, self.scene):
-                raise SetupError("The empty of handle '%s' was deleted" % h.group)
-            mats.append(constraints.matrix_to_numpy(h.empty.evaluated_get(depsgraph).matrix_world))
-        obj_matrix = constraints.matrix_to_numpy(self.obj.evaluated_get(depsgraph).matrix_world)
+        obj_matrix, mats = self.problem.evaluated_matrices(self.obj, bpy.context.evaluated_depsgraph_get(), self.scene)
         transforms = constraints.handle_transforms(self.setup, obj_matrix, mats)
-        return constraints.fill_targets(self.setup, self.rest_constrained, transforms, self.targets)
+        return constraints.fill_targets(self.setup, self.problem.rest_constrained, transforms, self.problem.targets)
 
     def _gradient(self, positions):
         g = self.solver.energy_gradient(np.ascontiguousarray(positions, np.float64))
@@ -384,7 +365,7 @@ class PC2Writer:
 
     def __init__(self, path, points, start, samples, rate=1.0):
         self.path = path
-        self.tmp = "%s.tmp-%d" % (path, os.getpid())
+        self.tmp = temp_files.temp_path(path)
         self.points, self.samples, self.written = points, samples, 0
         self.file = open(self.tmp, "wb")
         self.file.write(PC2_HEADER.pack(b"POINTCACHE2\0", 1, points, float(start), float(rate), samples))
@@ -394,7 +375,7 @@ class PC2Writer:
         data = np.ascontiguousarray(positions, dtype="<f4")
         if data.size != 3 * self.points or self.written >= self.samples:
             raise ValueError("PC2 sample %d: expected %d points" % (self.written, self.points))
-        self.file.write(data.tobytes())
+        self.file.write(data)  # the buffer itself, no copy
         self.written += 1
 
     def close(self):

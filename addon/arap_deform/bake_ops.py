@@ -12,7 +12,7 @@ bpy.ops.object.arap_bake(frame_start=1, frame_end=100, output='PC2', filepath="/
 import bpy
 from bpy.props import EnumProperty, IntProperty, StringProperty
 
-from . import bake, engine, meshio, ui
+from . import bake, errors, meshio, sessions, ui
 
 OUTPUT_ITEMS = (
     ('SHAPE_KEYS', "Shape Keys", "One shape key per frame (ARAP_f0001...), keyed on at its frame"),
@@ -96,20 +96,20 @@ class ARAP_OT_bake(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        obj = engine.target_mesh(context)
+        obj = sessions.target_mesh(context)
         return obj is not None and obj.mode == 'OBJECT'
 
     def _check(self, context):
         """Fill defaults; returns an error message or None."""
         if self.output == 'PC2':
             if not self.filepath:
-                self.filepath = _default_pc2(engine.target_mesh(context))
+                self.filepath = _default_pc2(sessions.target_mesh(context))
             if self.filepath.startswith("//") and not bpy.data.filepath:
                 return "Save the .blend first, or give the .pc2 file an absolute path"
         return None
 
     def _start(self, context):
-        return bake.Baker(engine.target_mesh(context), self.frame_start, self.frame_end, scene=context.scene,
+        return bake.Baker(sessions.target_mesh(context), self.frame_start, self.frame_end, scene=context.scene,
                           pc2_path=self.filepath if self.output == 'PC2' else None)
 
     def _write(self, baker):
@@ -125,7 +125,7 @@ class ARAP_OT_bake(bpy.types.Operator):
                     % (n, total, sum(result.ms) / n, sum(result.iterations) / n))
 
     def _fail(self, exc):
-        message = engine.user_error(exc) or (exc.strerror if isinstance(exc, OSError) else None)
+        message = errors.user_error(exc) or (exc.strerror if isinstance(exc, OSError) else None)
         if message is None:
             raise exc
         self.report({'ERROR'}, message)
@@ -208,11 +208,11 @@ class ARAP_OT_bake_clear(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        obj = engine.target_mesh(context)
+        obj = sessions.target_mesh(context)
         return obj is not None and obj.mode == 'OBJECT'
 
     def execute(self, context):
-        n = bake.clear_bake(engine.target_mesh(context))
+        n = bake.clear_bake(sessions.target_mesh(context))
         self.report({'INFO'}, "Removed %d baked item(s)" % n)
         return {'FINISHED'}
 
@@ -224,7 +224,7 @@ class ARAP_PT_bake(ui.SubPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         scene = context.scene
-        obj = engine.target_mesh(context)
+        obj = sessions.target_mesh(context)
         row = layout.row(align=True)
         row.prop(scene, "frame_start", text="Start")
         row.prop(scene, "frame_end", text="End")

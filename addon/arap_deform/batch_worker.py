@@ -37,13 +37,14 @@ file under the final name; the input is only replaced when output == input
 
 import json
 import os
-import re
 import signal
 import sys
 import time
 import traceback
 
 import bpy
+
+from . import temp_files
 
 PREFIX = "@arap-batch "
 
@@ -55,25 +56,6 @@ class Interrupted(BaseException):
 class _Stop:
     requested = False   # SIGTERM seen (also when the exception was swallowed somewhere)
     critical = False    # between renaming an output and reporting it: finish, then stop
-
-
-def temp_name(final, pid=None):
-    """Hidden temporary file next to `final` (the launcher sweeps these by pid)."""
-    folder, name = os.path.split(final)
-    stem = name[:-6] if name.endswith(".blend") else name
-    return os.path.join(folder, ".%s.arap-tmp-%d.blend" % (stem, os.getpid() if pid is None else pid))
-
-
-TEMP_PATTERN = r"^\..*\.arap-tmp-%d\.blend@?$|\.pc2\.tmp-%d$"
-
-
-def temp_files(folder, pid):
-    """Temporary files a worker with this pid may have left in `folder`."""
-    pattern = re.compile(TEMP_PATTERN % (pid, pid))
-    try:
-        return [os.path.join(folder, n) for n in os.listdir(folder) if pattern.search(n)]
-    except OSError:
-        return []
 
 
 class FileFailed(Exception):
@@ -136,14 +118,14 @@ def _targets(scene, names):
 
 def _pose(obj, job, scene, out_path, written):
     """Deform or bake one object; returns its record. Raises FileFailed."""
-    from . import api, bake, engine
+    from . import api, bake, errors
     rec = {"name": obj.name}
     try:
         if job.get("bake"):
             start, end = job["bake"]
             if job.get("bake_format") == "pc2":
                 folder, name = os.path.split(out_path)
-                stem = name[:-6] if name.endswith(".blend") else name
+                stem = name.removesuffix(".blend")
                 pc2 = os.path.join(folder, "%s_%s.pc2" % (stem, bpy.path.clean_name(obj.name)))
                 # Relative to the open file; save_as_mainfile(relative_remap=True) rebases it.
                 r = bake.bake_pc2(obj, bpy.path.relpath(pc2), start, end, scene=scene,
@@ -159,7 +141,7 @@ def _pose(obj, job, scene, out_path, written):
             rec.update(energies=r.energies, energy=r.energy, iterations=r.iterations,
                        ms=round(r.bind_ms + r.solve_ms + r.io_ms, 2), warnings=r.warnings)
     except Exception as exc:  # noqa: BLE001 - every error of one object fails its file
-        message = engine.user_error(exc) or "%s: %s" % (type(exc).__name__, exc)
+        message = errors.user_error(exc) or "%s: %s" % (type(exc).__name__, exc)
         raise FileFailed("object '%s': %s" % (obj.name, message)) from exc
     return rec
 
@@ -169,7 +151,7 @@ def process(entry, job):
     inp, out = entry["input"], entry["output"]
     rec = {"event": "result", "input": inp, "output": out, "status": "failed", "reason": "", "objects": []}
     t0 = time.perf_counter()
-    tmp = temp_name(out)
+    tmp = temp_files.temp_path(out)
     written = []
     try:
         if not os.path.exists(inp):

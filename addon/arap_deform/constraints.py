@@ -4,17 +4,14 @@ empty matrices into target positions.
 
 Constraint semantics (object-local coordinates, homogeneous 4x4 matrices):
     target_local = M_obj^-1 @ M_empty_now @ M_empty_bind^-1 @ M_obj @ rest_local
-Fixed vertices keep their rest position. A vertex in the fixed group and in
-a handle stays fixed; a vertex in two handles follows the first one.
+Fixed vertices keep their rest position. Which vertices are fixed and which
+follow which handle is decided by the core library's rule (gather()).
 """
 
 import numpy as np
 
-from . import meshio
-
-
-class SetupError(Exception):
-    """A set-up the user must change (message says what)."""
+from . import meshio, native_loader
+from .errors import SetupError  # noqa: F401 - raised here, imported from here by callers
 
 
 def matrix_to_numpy(m):
@@ -91,7 +88,9 @@ def check_object(obj):
 
 
 def gather(obj, scene=None):
-    """Validate obj.arap and return a Setup; raises SetupError."""
+    """Validate obj.arap and return a Setup; raises SetupError. Which vertex
+    follows which group is the core's rule (native constraint_set, README
+    "Constraints: the rules"): fixed first, fixed wins, the first handle wins."""
     check_object(obj)
     s = obj.arap
     names = [s.fixed_group] if s.fixed_group else []
@@ -105,18 +104,6 @@ def gather(obj, scene=None):
             raise SetupError("Vertex group '%s' has no vertices (assign some with weight > 0)" % name)
     if not s.fixed_group and len(s.handles) == 0:
         raise SetupError("Nothing holds the mesh: set a fixed vertex group or add a handle")
-
-    warnings = []
-    taken = np.zeros(len(obj.data.vertices), bool)
-    blocks = []
-    if s.fixed_group:
-        fixed = members[s.fixed_group]
-        taken[fixed] = True
-        blocks.append(fixed)
-    n_fixed = sum(len(b) for b in blocks)
-
-    handles = []
-    start = n_fixed
     for i, h in enumerate(s.handles):
         label = h.group or "#%d" % (i + 1)
         if not h.group:
@@ -125,25 +112,17 @@ def gather(obj, scene=None):
             raise SetupError("Handle '%s' has no empty (never set, or deleted): pick one in the handle list" % label)
         if not empty_is_alive(h.empty, scene):
             raise SetupError("The empty of handle '%s' was deleted: pick another one" % label)
-        idx = members[h.group]
-        overlap = taken[idx]
-        if overlap.any():
-            what = "the fixed group '%s'" % s.fixed_group if s.fixed_group else "another handle"
-            warnings.append("Handle '%s': %d of its vertices are also in %s and do not follow it"
-                            % (label, int(overlap.sum()), what))
-            idx = idx[~overlap]
-        if len(idx) == 0:
-            warnings.append("Handle '%s' has no vertices of its own: ignored" % label)
-            continue
-        taken[idx] = True
+
+    # Every group named here has vertices (checked above), so something is always held.
+    chosen = native_loader.native().constraint_set(
+        len(obj.data.vertices), members[s.fixed_group] if s.fixed_group else None,
+        "the fixed group '%s'" % s.fixed_group, [("handle '%s'" % h.group, members[h.group]) for h in s.handles])
+    handles = []
+    for index, start, stop in chosen.handles:
+        h = s.handles[index]
         bind = bind_matrix_of(h) if h.has_bind else matrix_to_numpy(h.empty.matrix_world)
-        handles.append(HandleBlock(i, h.group, h.empty, start, start + len(idx), bind))
-        blocks.append(idx)
-        start += len(idx)
-    if not blocks:
-        raise SetupError("No vertex is constrained: every handle's vertices are taken by the fixed group")
-    constrained = np.concatenate(blocks).astype(np.int64)
-    return Setup(constrained, n_fixed, handles, warnings)
+        handles.append(HandleBlock(index, h.group, h.empty, start, stop, bind))
+    return Setup(chosen.constrained, chosen.fixed_count, handles, list(chosen.warnings))
 
 
 def stiffness_of(obj):

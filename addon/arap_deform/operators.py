@@ -7,7 +7,7 @@ import numpy as np
 from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
 from mathutils import Matrix, Vector
 
-from . import api, engine, properties
+from . import api, errors, live, properties, sessions
 
 
 def _mesh_object(context):
@@ -17,7 +17,7 @@ def _mesh_object(context):
 
 def _report_error(op, exc):
     """Report errors a user can act on and return {'CANCELLED'}; re-raise bugs."""
-    msg = engine.user_error(exc)
+    msg = errors.user_error(exc)
     if msg is None:
         raise exc
     op.report({'ERROR'}, msg)
@@ -34,7 +34,7 @@ def _redraw_live(context):
 
 def live_status_text():
     """What the status bar shows while Live runs ('' when it does not)."""
-    session = engine.any_session()
+    session = sessions.any_session()
     if session is None or not session.active:
         return ""
     last = session.last
@@ -69,7 +69,7 @@ def _live_status(on):
     if on and not _status_shown:
         bpy.types.STATUSBAR_HT_header.append(_draw_live_status)
         _status_shown = True
-    elif not on and _status_shown and engine.any_session() is None:
+    elif not on and _status_shown and sessions.any_session() is None:
         bpy.types.STATUSBAR_HT_header.remove(_draw_live_status)
         _status_shown = False
 
@@ -194,10 +194,10 @@ class ARAP_OT_handle_add(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        return engine.target_mesh(context) is not None
+        return sessions.target_mesh(context) is not None
 
     def execute(self, context):
-        s = engine.target_mesh(context).arap
+        s = sessions.target_mesh(context).arap
         s.handles.add()
         s.active_handle = len(s.handles) - 1
         return {'FINISHED'}
@@ -211,11 +211,11 @@ class ARAP_OT_handle_remove(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        obj = engine.target_mesh(context)
+        obj = sessions.target_mesh(context)
         return obj is not None and len(obj.arap.handles) > 0
 
     def execute(self, context):
-        obj = engine.target_mesh(context)
+        obj = sessions.target_mesh(context)
         api.remove_handle(obj, min(obj.arap.active_handle, len(obj.arap.handles) - 1))
         return {'FINISHED'}
 
@@ -236,8 +236,8 @@ class ARAP_OT_deform(bpy.types.Operator):
                        description="The shape the solver starts from")
 
     def execute(self, context):
-        obj = engine.target_mesh(context)
-        if obj is not None and engine.session_for(obj) is not None:
+        obj = sessions.target_mesh(context)
+        if obj is not None and sessions.session_for(obj) is not None:
             self.report({'ERROR'}, "Live is running on '%s': apply or cancel it first" % obj.name)
             return {'CANCELLED'}
         if obj is not None:
@@ -262,7 +262,7 @@ class _ApplyToActiveObject:
 
     def execute(self, context):
         try:
-            type(self).action(engine.target_mesh(context))
+            type(self).action(sessions.target_mesh(context))
         except Exception as exc:  # noqa: BLE001 - _report_error re-raises what is not a user error
             return _report_error(self, exc)
         return {'FINISHED'}
@@ -284,6 +284,12 @@ class ARAP_OT_set_rest_pose(_ApplyToActiveObject, bpy.types.Operator):
     action = staticmethod(api.set_rest_pose)
 
 
+# What the Apply / Cancel operators (the panel's buttons, F3) asked of a running
+# Live session: session -> 'APPLY' or 'CANCEL'. The Live modal operator takes
+# the request at its next event (a timer tick at the latest) and ends itself.
+_end_requests = {}
+
+
 class ARAP_OT_live(bpy.types.Operator):
     """Pose interactively: the mesh follows its handle empties while you move them. Enter applies, Esc cancels"""
     bl_idname = "object.arap_live"
@@ -297,14 +303,14 @@ class ARAP_OT_live(bpy.types.Operator):
         self._collapsed = []
 
     def invoke(self, context, event):
-        obj = engine.target_mesh(context)
-        if obj is not None and engine.session_for(obj) is not None:
+        obj = sessions.target_mesh(context)
+        if obj is not None and sessions.session_for(obj) is not None:
             self.report({'ERROR'}, "Live is already running on '%s'" % obj.name)
             return {'CANCELLED'}
         try:
             if obj is None or obj.type != 'MESH':
-                raise engine.SetupError("ARAP works on a mesh object: select one and make it active")
-            self._session = engine.LiveSession(obj, context.scene)
+                raise errors.SetupError("ARAP works on a mesh object: select one and make it active")
+            self._session = live.LiveSession(obj, context.scene)
             self._session.step()
         except Exception as exc:  # noqa: BLE001
             if self._session is not None:
@@ -333,11 +339,12 @@ class ARAP_OT_live(bpy.types.Operator):
 
     def _modal(self, context, event):
         session = self._session
-        if session.request == 'APPLY' or (event.type in {'RET', 'NUMPAD_ENTER'} and event.value == 'PRESS'):
+        request = _end_requests.pop(session, None)
+        if request == 'APPLY' or (event.type in {'RET', 'NUMPAD_ENTER'} and event.value == 'PRESS'):
             return self._end(context, apply=True)
         # Only Esc (or the panel's Cancel) throws the pose away: right-click belongs to
         # Blender (it cancels a running G/R/S, or opens a context menu).
-        if session.request == 'CANCEL' or (event.type == 'ESC' and event.value == 'PRESS'):
+        if request == 'CANCEL' or (event.type == 'ESC' and event.value == 'PRESS'):
             return self._end(context, apply=False)
         if event.type == 'TIMER':
             try:
@@ -349,7 +356,7 @@ class ARAP_OT_live(bpy.types.Operator):
                 if session.step(force=False) is not None:
                     self._warn_collapsed(session)
                     _redraw_live(context)
-            except engine.SessionError as exc:
+            except errors.SessionError as exc:
                 return self._end(context, apply=False, error=exc)
         return {'PASS_THROUGH'}
 
@@ -362,6 +369,7 @@ class ARAP_OT_live(bpy.types.Operator):
 
     def cancel(self, context):
         # Blender calls this when the modal is aborted (file load, window closed).
+        _end_requests.pop(self._session, None)
         if self._session is not None and self._session.active:
             self._cleanup(context)
             self._session.cancel()
@@ -373,6 +381,7 @@ class ARAP_OT_live(bpy.types.Operator):
             self._timer = None
 
     def _end(self, context, apply, error=None):
+        _end_requests.pop(self._session, None)
         try:
             return self._end_session(context, apply, error)
         finally:
@@ -388,7 +397,7 @@ class ARAP_OT_live(bpy.types.Operator):
             return {'FINISHED'}
         if error is not None and error.kind == 'TOPOLOGY':
             session.active = False
-            engine.stop_session(session)
+            sessions.stop_session(session)
             self.report({'ERROR'}, str(error) + " (the mesh was not restored)")
             return {'CANCELLED'}
         if error is not None and error.kind == 'MODE':
@@ -399,7 +408,7 @@ class ARAP_OT_live(bpy.types.Operator):
                 session.cancel()
                 bpy.ops.object.mode_set(mode=mode)
         elif error is not None and error.kind == 'OBJECT':
-            engine.stop_session(session)
+            sessions.stop_session(session)
         else:
             session.cancel()
         if error is not None:
@@ -410,8 +419,8 @@ class ARAP_OT_live(bpy.types.Operator):
 def _live_session(context):
     """The Live session of the active mesh, else the running one (an empty may be active)."""
     obj = _mesh_object(context)
-    session = engine.session_for(obj) if obj is not None else None
-    return session or engine.any_session()
+    session = sessions.session_for(obj) if obj is not None else None
+    return session or sessions.any_session()
 
 
 class ARAP_OT_live_apply(bpy.types.Operator):
@@ -424,7 +433,7 @@ class ARAP_OT_live_apply(bpy.types.Operator):
         return _live_session(context) is not None
 
     def execute(self, context):
-        _live_session(context).request = 'APPLY'
+        _end_requests[_live_session(context)] = 'APPLY'
         return {'FINISHED'}
 
 
@@ -438,7 +447,7 @@ class ARAP_OT_live_cancel(bpy.types.Operator):
         return _live_session(context) is not None
 
     def execute(self, context):
-        _live_session(context).request = 'CANCEL'
+        _end_requests[_live_session(context)] = 'CANCEL'
         return {'FINISHED'}
 
 

@@ -17,7 +17,7 @@ IDENTITY16 = (1.0, 0.0, 0.0, 0.0,
               0.0, 0.0, 1.0, 0.0,
               0.0, 0.0, 0.0, 1.0)
 
-# Enum identifiers -> names understood by the native module.
+# Enum identifiers; problem.py maps them to the native module's names (WEIGHT_NAMES, METHOD_NAMES, INIT_NAMES).
 WEIGHT_ITEMS = (
     ('COTAN_CLAMPED', "Cotangent (clamped)",
      "Cotangent weights with negative cotangents set to zero: robust on obtuse triangles"),
@@ -177,8 +177,8 @@ class ARAP_PG_settings(PropertyGroup):
     )
     volume: EnumProperty(
         name="Volume", description="What keeps thick parts from folding flat and losing volume where they bend "
-        "(README, \"Keeping the volume\"). Global and Infill work with the Quasi-Newton and Local/Global methods "
-        "(with Anderson, Quasi-Newton is used)",
+        "(surface ARAP keeps the surface rigid, not the inside). Global and Infill work with the Quasi-Newton and "
+        "Local/Global methods (with Anderson, Quasi-Newton is used)",
         items=VOLUME_ITEMS, default='NONE', update=_volume_changed,
     )
     infill_resolution: IntProperty(

@@ -4,7 +4,7 @@ puts every operator in F3 search (Object menu and Edit Mode Vertex menu)."""
 
 import bpy
 
-from . import engine
+from . import sessions
 
 
 class ARAP_UL_handles(bpy.types.UIList):
@@ -18,9 +18,9 @@ class ARAP_UL_handles(bpy.types.UIList):
 
 
 def panel_object(context):
-    """The mesh the panel shows (engine.target_mesh: the active mesh, or the
+    """The mesh the panel shows (sessions.target_mesh: the active mesh, or the
     posed mesh of an active handle Empty)."""
-    return engine.target_mesh(context)
+    return sessions.target_mesh(context)
 
 
 class ARAP_PT_main(bpy.types.Panel):
@@ -38,7 +38,7 @@ class ARAP_PT_main(bpy.types.Panel):
         layout = self.layout
         obj = panel_object(context)
         s = obj.arap
-        session = engine.session_for(obj)
+        session = sessions.session_for(obj)
         if obj != context.active_object:
             layout.label(text="Handle of '%s'" % obj.name, icon='MESH_DATA')
 

@@ -148,7 +148,7 @@ def screenshot(name):
 
 
 def write_state():
-    from arap_deform import engine, operators
+    from arap_deform import operators, sessions
     obj = bpy.data.objects.get("Bar")
     if obj is not None and STATE["ready"]:
         co = np.empty(len(obj.data.vertices) * 3, np.float32)
@@ -157,7 +157,7 @@ def write_state():
         STATE["hash"] = coords_hash(obj)
         STATE["top_centroid"] = co[STATE["top"]].mean(axis=0).tolist()
         STATE["empty_location"] = list(bpy.data.objects["TopEmpty"].matrix_world.translation)
-        session = engine.session_for(obj)
+        session = sessions.session_for(obj)
         STATE["live_running"] = session is not None
         STATE["live_status"] = operators.live_status_text()
         active = bpy.context.view_layer.objects.active

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "arap/solver.h"
+#include "arap/types.h"
 
 namespace bench {
 
@@ -23,20 +23,13 @@ struct Case {
   int fixed_count = 0;       // the first fixed_count of `constrained` stay at rest
 };
 
-// A closed, smooth surface: a cube's surface lattice (n segments per edge)
-// projected onto the ellipsoid with semi-axes 1, 1, 2. About `vertices` vertices.
-void make_ellipsoid(int vertices, Points& V, Triangles& F);
-// A closed 1 x 1 x 6 bar (cubic cells) with about `vertices` vertices.
-void make_bar(int vertices, Points& V, Triangles& F);
-
-// The default scenario: the height axis is the longest side of the bounding
-// box; the bottom fifth is fixed, the top 5 % moves sideways by 0.3 * height.
-void bend_scenario(Case& c);
-
-// "sphere" or "bar" at about `vertices` vertices, with the bend scenario.
+// "sphere" (arap::procedural::make_ellipsoid, semi-axes 1, 1, 2) or "bar"
+// (a 1 x 1 x 6 make_bar_with_vertices) at about `vertices` vertices, bent
+// with arap::procedural::bend(): the bottom fifth by the longest side of the
+// bounding box fixed, the top 5 % moved sideways by 0.3 times that length.
 Case procedural_case(const std::string& shape, int vertices);
 
-// A mesh file (.off, .obj, .ply, .stl) with the bend scenario, or a scenario
+// A mesh file (.off, .obj, .ply, .stl) bent the same way, or a scenario
 // .json as described in shared/README.md; both read through arap_io.
 Case file_case(const std::string& path);
 

@@ -12,8 +12,9 @@
 #include <iostream>
 
 #include "arap/errors.h"
-#include "arap/mesh_io.h"
-#include "arap/scenario.h"
+#include "arap/io/mesh_io.h"
+#include "arap/io/polygons.h"
+#include "arap/io/scenario.h"
 #include "arap/quality.h"
 #include "arap/solver.h"
 #include "deform_args.h"
@@ -102,7 +103,7 @@ int run(const cli::DeformArgs& args) {
 
   Solver solver;
   const auto bind_start = Clock::now();
-  solver.bind(mesh.vertices, triangles, constraints.indices, args.options);
+  solver.bind(mesh.vertices, triangles, constraints.constrained, args.options);
   const double precompute_ms = ms_since(bind_start);
   const double cpu_start = thread_cpu_ms();
   const SolveStats stats = solver.solve(constraints.targets);
@@ -114,7 +115,7 @@ int run(const cli::DeformArgs& args) {
   info.faces = static_cast<int>(mesh.polygons.size());
   info.triangles = static_cast<int>(triangles.rows());
   info.fixed = constraints.fixed_count;
-  info.handle_vertices = static_cast<int>(constraints.indices.size()) - constraints.fixed_count;
+  info.handle_vertices = static_cast<int>(constraints.constrained.size()) - constraints.fixed_count;
   info.read_ms = read_ms;
   info.precompute_ms = precompute_ms;
   info.total_ms = ms_since(start);
@@ -145,10 +146,10 @@ int run(const cli::DeformArgs& args) {
     throw;
   }
 
-  for (const std::string& w : constraints.warnings) std::cerr << "arap-deform: " << w << '\n';
+  for (const std::string& w : constraints.warnings) std::cerr << "arap-deform: warning: " << w << '\n';
   const MeshReport& report = solver.mesh_report();
   if (solver.options().volume == Volume::Global && report.volume_open_components > 0)
-    std::cerr << "arap-deform: --volume global keeps the volume of " << report.volume_kept_components
+    std::cerr << "arap-deform: warning: --volume global keeps the volume of " << report.volume_kept_components
               << " closed part(s); " << report.volume_open_components
               << " open part(s) are left as they are (--volume infill fills open parts too)\n";
   if (!stats.converged && args.options.tolerance > 0)

@@ -8,7 +8,9 @@
 #include <string>
 
 #include "arap/errors.h"
-#include "arap/mesh_io.h"
+#include "arap/io/mesh_io.h"
+#include "arap/io/numbers.h"
+#include "arap/io/polygons.h"
 #include "arap/procedural.h"
 
 namespace {
@@ -38,15 +40,16 @@ struct Usage : std::runtime_error {
 };
 
 double number(const std::string& flag, const std::string& s) {
-  char* end = nullptr;
-  const double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v)) throw Usage(flag + " expects a number");
+  double v = 0;
+  if (!arap::io::parse_finite(s, v)) throw Usage(flag + " expects a number");
   return v;
 }
 
+// A whole number, written as one ("2000", "2e3").
 int integer(const std::string& flag, const std::string& s) {
-  const double v = number(flag, s);
-  if (v != std::floor(v) || v < 1 || v > 1e8) throw Usage(flag + " expects a positive integer");
+  double v = 0;
+  if (!arap::io::parse_finite(s, v) || v != std::floor(v) || v < 1 || v > 1e8)
+    throw Usage(flag + " expects a positive integer");
   return static_cast<int>(v);
 }
 
@@ -76,9 +79,16 @@ int run(int argc, char** argv) {
       vertices = integer(arg, value());
     } else if (arg == "--dims") {
       const std::string v = value();
-      if (std::sscanf(v.c_str(), "%d,%d,%d", &dims[0], &dims[1], &dims[2]) != 3 || dims[0] < 1 || dims[1] < 1 ||
-          dims[2] < 1 || dims[0] > 10000 || dims[1] > 10000 || dims[2] > 10000)
-        throw Usage("--dims expects NX,NY,NZ (positive integers)");
+      const std::size_t a = v.find(','), b = a == std::string::npos ? a : v.find(',', a + 1);
+      long long n[3] = {0, 0, 0};
+      const bool ok = b != std::string::npos && v.find(',', b + 1) == std::string::npos &&
+                      arap::io::parse_integer(std::string_view(v).substr(0, a), n[0]) &&
+                      arap::io::parse_integer(std::string_view(v).substr(a + 1, b - a - 1), n[1]) &&
+                      arap::io::parse_integer(std::string_view(v).substr(b + 1), n[2]);
+      for (int k = 0; k < 3; ++k) {
+        if (!ok || n[k] < 1 || n[k] > 10000) throw Usage("--dims expects NX,NY,NZ (integers from 1 to 10000)");
+        dims[k] = static_cast<int>(n[k]);
+      }
     } else if (arg == "--output" || arg == "-o") {
       output = value();
     } else if (arg == "--fixed-out") {

@@ -8,9 +8,10 @@
 #include <nlohmann/json.hpp>
 
 #include "arap/errors.h"
-#include "arap/mesh_io.h"
+#include "arap/io/mesh_io.h"
+#include "arap/io/polygons.h"
+#include "arap/io/shape_measures.h"
 #include "arap/quality.h"
-#include "arap/shape_measures.h"
 
 namespace {
 

@@ -1,10 +1,10 @@
 #include "deform_args.h"
 
-#include <cmath>
-#include <cstdlib>
 #include <sstream>
+#include <utility>
 
-#include "arap/mesh_io.h"
+#include "arap/io/files.h"
+#include "arap/io/numbers.h"
 
 namespace arap::cli {
 
@@ -28,8 +28,9 @@ Inputs:
   --translate DX,DY,DZ    translation of the current handle (default 0,0,0)
   --rotate AXIS,DEG       rotation about x, y or z through the handle's rest
                           centroid, applied before the translation
-  A vertex that is both fixed and in a handle stays FIXED (fixed wins; a
-  warning is printed). A vertex in two handles is an error.
+  A vertex both fixed and in a handle stays fixed (fixed wins); a vertex in
+  two handles follows the first of them (the first handle wins); a warning
+  names the group that kept the vertex.
 
 Solver options (the defaults solve until the pose has settled):
   --method NAME         how the energy is minimised:
@@ -78,19 +79,41 @@ no output or report file written; 1 on an internal error.
 namespace {
 
 double parse_number(const std::string& flag, const std::string& s) {
-  char* end = nullptr;
-  const double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v))
-    throw UsageError(flag + " expects a finite number, got '" + s + "'");
+  double v = 0;
+  if (!io::parse_finite(s, v)) throw UsageError(flag + " expects a finite number, got '" + s + "'");
   return v;
 }
 
-int parse_int(const std::string& flag, const std::string& s, int min_value) {
-  char* end = nullptr;
-  const long v = std::strtol(s.c_str(), &end, 10);
-  if (s.empty() || end != s.c_str() + s.size() || v < min_value || v > 1000000000)
-    throw UsageError(flag + " expects an integer >= " + std::to_string(min_value) + ", got '" + s + "'");
-  return static_cast<int>(v);
+// The solver options on the command line: flag -> arap::option_specs() name,
+// which gives their parsing, limits and messages.
+constexpr std::pair<const char*, const char*> kOptionFlags[] = {
+    {"--method", "method"},     {"--weights", "weights"},   {"--init", "init"},
+    {"--iterations", "max_iterations"}, {"--tolerance", "tolerance"}, {"--threads", "threads"},
+    {"--anderson", "anderson_window"}, {"--volume", "volume"}, {"--infill-resolution", "infill_resolution"}};
+
+const char* option_of_flag(const std::string& flag) {
+  for (const auto& [f, name] : kOptionFlags)
+    if (flag == f) return name;
+  return nullptr;
+}
+
+// Sets the option behind `flag` from its text, within the option's limits.
+void set_option(Options& options, const std::string& flag, const char* name, const std::string& text) {
+  const OptionSpec& spec = option_spec(name);
+  auto refuse = [&] { throw UsageError(flag + " expects " + option_limits(spec) + ", got '" + text + "'"); };
+  if (spec.kind == OptionKind::Choice) {
+    bool known = false;
+    for (const std::string& c : spec.choices) known = known || c == text;
+    if (!known) refuse();
+    spec.set_choice(options, text);
+    return;
+  }
+  double v = 0;
+  long long integer = 0;
+  if (spec.kind == OptionKind::Integer ? !io::parse_integer(text, integer) : !io::parse_finite(text, v)) refuse();
+  if (spec.kind == OptionKind::Integer) v = static_cast<double>(integer);
+  if (v < spec.min || v > spec.max) refuse();
+  spec.set_number(options, v);
 }
 
 std::vector<std::string> split_commas(const std::string& s) {
@@ -143,30 +166,13 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
         throw UsageError("--rotate expects AXIS,DEGREES with AXIS x, y or z, got '" + v + "'");
       h.rotate_axis = parts[0][0] - 'x';
       h.rotate_degrees = parse_number(arg, parts[1]);
-    } else if (arg == "--iterations") {
-      a.options.max_iterations = parse_int(arg, value(), 1);
-    } else if (arg == "--tolerance") {
-      a.options.tolerance = parse_number(arg, value());
-      if (a.options.tolerance < 0) throw UsageError("--tolerance must be >= 0");
-    } else if (arg == "--init") {
-      a.options.init = parse_initial_guess(value());
-      if (a.options.init == InitialGuess::WarmStart) throw UsageError("--init warm makes no sense for a single solve");
-    } else if (arg == "--weights") {
-      a.options.weights = parse_weights(value());
-    } else if (arg == "--threads") {
-      a.options.threads = parse_int(arg, value(), 1);
-    } else if (arg == "--method") {
-      a.options.method = parse_method(value());
-      method_given = true;
-    } else if (arg == "--volume") {
-      a.options.volume = parse_volume(value());
-    } else if (arg == "--infill-resolution") {
-      a.options.infill_resolution = parse_int(arg, value(), 2);
-      if (a.options.infill_resolution > 256) throw UsageError("--infill-resolution expects 2..256 cells");
-      infill_resolution_given = true;
-    } else if (arg == "--anderson") {
-      a.options.anderson_window = parse_int(arg, value(), 0);
-      anderson_given = true;
+    } else if (const char* option = option_of_flag(arg)) {
+      const std::string text = value();
+      if (arg == "--init" && text == "warm") throw UsageError("--init warm makes no sense for a single solve");
+      set_option(a.options, arg, option, text);
+      method_given = method_given || arg == "--method";
+      anderson_given = anderson_given || arg == "--anderson";
+      infill_resolution_given = infill_resolution_given || arg == "--infill-resolution";
     } else if (arg == "--output" || arg == "-o") {
       a.output = value();
     } else if (arg == "--report") {

@@ -35,7 +35,7 @@ struct DeformArgs {
   bool help = false;
 };
 
-// Throws UsageError (or arap::Error from parse_weights / parse_initial_guess).
+// Throws UsageError naming the offending argument.
 DeformArgs parse_deform_args(int argc, const char* const* argv);
 
 extern const char* const kDeformUsage;

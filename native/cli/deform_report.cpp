@@ -15,15 +15,14 @@ nlohmann::json make_report(const RunInfo& run, const Solver& solver, const Solve
   r["triangles"] = run.triangles;
   r["fixed_vertices"] = run.fixed;
   r["handle_vertices"] = run.handle_vertices;
-  r["method"] = to_string(o.method);
-  r["weights"] = to_string(o.weights);
-  r["init"] = to_string(o.init);
-  r["max_iterations"] = o.max_iterations;
-  r["tolerance"] = o.tolerance;
-  r["threads"] = o.threads;
-  r["anderson_window"] = o.anderson_window;
-  r["volume"] = to_string(o.volume);
-  if (o.volume == Volume::Infill) r["infill_resolution"] = o.infill_resolution;
+  for (const OptionSpec& spec : option_specs()) {
+    if (spec.kind == OptionKind::Choice)
+      r[spec.name] = spec.get_choice(o);
+    else if (spec.kind == OptionKind::Integer)
+      r[spec.name] = static_cast<long long>(spec.get_number(o));
+    else
+      r[spec.name] = spec.get_number(o);
+  }
 
   r["iterations"] = stats.iterations;
   r["converged"] = stats.converged;
@@ -52,16 +51,9 @@ nlohmann::json make_report(const RunInfo& run, const Solver& solver, const Solve
   r["distortion"] = run.distortion;
   r["flipped_triangles"] = run.flipped_triangles;
 
-  r["degenerate_triangles"] = m.degenerate_triangles;
-  r["isolated_vertices"] = m.isolated_vertices;
-  r["components"] = m.components;
-  r["unconstrained_components"] = m.unconstrained_components;
-  r["unconstrained_vertices"] = m.unconstrained_vertices;
-  r["nonmanifold_edges"] = m.nonmanifold_edges;
-  r["volume_kept_components"] = m.volume_kept_components;
-  r["volume_open_components"] = m.volume_open_components;
-  r["infill_cells"] = m.infill_cells;
-  r["infill_nodes"] = m.infill_nodes;
+  // The mesh checks (vertices and triangles are those of the run above).
+  for (const MeshReportField& f : kMeshReportFields)
+    if (!r.contains(f.name)) r[f.name] = m.*f.member;
   return r;
 }
 

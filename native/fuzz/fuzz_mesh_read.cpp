@@ -6,7 +6,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "arap/mesh_io.h"
+#include "arap/io/mesh_io.h"
 #include "fuzz_common.h"
 
 namespace {

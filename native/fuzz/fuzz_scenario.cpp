@@ -5,8 +5,8 @@
 #include <set>
 
 #include "arap/errors.h"
-#include "arap/mesh_io.h"
-#include "arap/scenario.h"
+#include "arap/io/mesh_io.h"
+#include "arap/io/scenario.h"
 #include "fuzz_common.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -17,9 +17,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const arap::io::Scenario s = arap::io::load_scenario(path);
     const arap::io::Constraints c = arap::io::build_constraints(rest, s.fixed, s.handles);
     if (!c.targets.allFinite()) arap_fuzz::broken("non-finite target returned");
-    if (c.targets.rows() != static_cast<Eigen::Index>(c.indices.size())) arap_fuzz::broken("target count");
+    if (c.targets.rows() != static_cast<Eigen::Index>(c.constrained.size())) arap_fuzz::broken("target count");
     std::set<int> seen;
-    for (int i : c.indices)
+    for (int i : c.constrained)
       if (i < 0 || i >= rest.rows() || !seen.insert(i).second) arap_fuzz::broken("bad constrained index returned");
   } catch (const arap::Error&) {
   } catch (const arap::io::FileError&) {

@@ -16,10 +16,11 @@
 #include <string>
 #include <vector>
 
+#include "arap/constraints.h"
 #include "arap/errors.h"
+#include "arap/mesh_check.h"
 #include "arap/options.h"
 #include "arap/solver.h"
-#include "arap/version.h"
 
 namespace py = pybind11;
 
@@ -130,34 +131,55 @@ arap::Triangles to_triangles(const py::array& a) {
   return tri;
 }
 
-std::vector<int> to_indices(const py::array& a) {
-  py::array_t<int64_t, py::array::c_style | py::array::forcecast> t(a);
-  if (t.ndim() != 1) throw py::value_error("constrained: expected a 1-D array of vertex indices");
+// Vertex indices from a 1-D array or sequence of integers (int32 and int64,
+// numpy's default, are both accepted). Indices beyond the mesh are the core's
+// to refuse (its messages name the group).
+std::vector<int> to_indices(const py::handle& a, const std::string& what) {
+  py::array_t<int64_t, py::array::c_style | py::array::forcecast> t =
+      py::array_t<int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+  if (!t || t.ndim() != 1) throw py::value_error(what + ": expected a 1-D array of vertex indices");
   std::vector<int> out(static_cast<size_t>(t.shape(0)));
   for (size_t i = 0; i < out.size(); ++i) {
     const int64_t v = t.data()[i];
     if (v < 0 || v > INT32_MAX)
-      throw py::value_error("constrained: index " + std::to_string(v) + " is negative or too large");
+      throw py::value_error(what + ": index " + std::to_string(v) + " is negative or too large");
     out[i] = static_cast<int>(v);
   }
   return out;
 }
 
-py::dict report_dict(const arap::MeshReport& r) {
-  py::dict d;
-  d["vertices"] = r.vertices;
-  d["triangles"] = r.triangles;
-  d["degenerate_triangles"] = r.degenerate_triangles;
-  d["isolated_vertices"] = r.isolated_vertices;
-  d["components"] = r.components;
-  d["unconstrained_components"] = r.unconstrained_components;
-  d["unconstrained_vertices"] = r.unconstrained_vertices;
-  d["nonmanifold_edges"] = r.nonmanifold_edges;
-  d["volume_kept_components"] = r.volume_kept_components;
-  d["volume_open_components"] = r.volume_open_components;
-  d["infill_cells"] = r.infill_cells;
-  d["infill_nodes"] = r.infill_nodes;
-  return d;
+// An option's value as Python sees it: str for a choice, int or float for a number.
+py::object option_value(const arap::OptionSpec& spec, const arap::Options& o) {
+  if (spec.kind == arap::OptionKind::Choice) return py::str(spec.get_choice(o));
+  if (spec.kind == arap::OptionKind::Integer) return py::int_(static_cast<long long>(spec.get_number(o)));
+  return py::float_(spec.get_number(o));
+}
+
+// Sets one option from a Python value; its limits are checked by arap::check_options() afterwards.
+void set_option(arap::Options& o, const std::string& name, const py::handle& value) {
+  const arap::OptionSpec& spec = arap::option_spec(name);
+  if (spec.kind == arap::OptionKind::Choice) {
+    if (!py::isinstance<py::str>(value)) throw py::type_error(name + ": expected one of " + arap::option_limits(spec));
+    spec.set_choice(o, py::cast<std::string>(value));
+    return;
+  }
+  const bool is_int = py::isinstance<py::int_>(value) && !py::isinstance<py::bool_>(value);
+  if (spec.kind == arap::OptionKind::Integer && !is_int) throw py::type_error(name + ": expected an int");
+  if (!is_int && !py::isinstance<py::float_>(value)) throw py::type_error(name + ": expected a number");
+  const double v = py::cast<double>(value);
+  // An int beyond the option's range must not wrap when it is stored.
+  if (!(v >= spec.min && v <= spec.max))
+    throw arap::Error(arap::ErrorCode::InvalidInput,
+                      name + " must be " + arap::option_limits(spec) + ", got " + std::string(py::str(value)));
+  spec.set_number(o, v);
+}
+
+// `options` with `kwargs` (option names) applied, checked as a whole: the
+// solver keeps its options unless every one is valid.
+arap::Options with_options(arap::Options o, const py::kwargs& kwargs) {
+  for (const auto& [key, value] : kwargs) set_option(o, py::cast<std::string>(key), value);
+  arap::check_options(o);
+  return o;
 }
 
 }  // namespace
@@ -165,12 +187,12 @@ py::dict report_dict(const arap::MeshReport& r) {
 PYBIND11_MODULE(_arap_native, m) {
   m.doc() = "Thin bindings of the ARAP solver (arap::Solver) for the Blender add-on.";
   m.attr("__version__") = ARAP_MODULE_VERSION;
-  m.attr("LIBRARY_VERSION") = arap::version();
   // SOABI of the Python this module was compiled for, e.g. "cpython-311-x86_64-linux-gnu".
   m.attr("PYTHON_ABI") = ARAP_PYTHON_ABI;
   m.attr("PYTHON_VERSION") = py::make_tuple(PY_MAJOR_VERSION, PY_MINOR_VERSION);
 
-  // ArapError(message).code is the arap::ErrorCode name ("NonFinite", ...).
+  // ArapError(message).code is the kind of error as arap::error_code_name() names it
+  // ("non-finite value", "index out of range", "invalid input", ...).
   static py::exception<arap::Error> arap_error(m, "ArapError", PyExc_RuntimeError);
   py::register_exception_translator([](std::exception_ptr p) {
     try {
@@ -206,47 +228,97 @@ PYBIND11_MODULE(_arap_native, m) {
                (s.converged ? " converged>" : ">");
       });
 
-  py::class_<arap::Solver>(m, "Solver", "Bind once per mesh and constraint set, then solve many times.")
-      .def(py::init<>())
+  py::class_<arap::ConstraintSet>(m, "ConstraintSet",
+                                  "Constrained vertices by the rules of arap/constraints.h (README, 'Constraints').")
+      .def_property_readonly(
+          "constrained",
+          [](const arap::ConstraintSet& s) {
+            py::array_t<int64_t> a(static_cast<py::ssize_t>(s.constrained.size()));
+            std::copy(s.constrained.begin(), s.constrained.end(), a.mutable_data());
+            return a;
+          },
+          "int64 vertex indices for Solver.bind(): the fixed ones first, then each kept handle's block")
+      .def_readonly("fixed_count", &arap::ConstraintSet::fixed_count)
+      .def_property_readonly(
+          "handles",
+          [](const arap::ConstraintSet& s) {
+            py::list out;
+            for (const arap::HandleBlock& b : s.handles) out.append(py::make_tuple(b.handle, b.start, b.stop));
+            return out;
+          },
+          "(handle, start, stop) per kept handle: rows [start, stop) of `constrained` follow input handle `handle`")
+      .def_readonly("warnings", &arap::ConstraintSet::warnings);
+
+  m.def(
+      "constraint_set",
+      [](int vertex_count, const py::object& fixed, const std::string& fixed_label, const py::list& handles) {
+        arap::ConstraintGroup fixed_group{fixed_label, {}};
+        if (!fixed.is_none()) fixed_group.vertices = to_indices(fixed, fixed_label);
+        std::vector<arap::ConstraintGroup> groups;
+        for (const py::handle h : handles) {
+          const py::tuple pair = py::reinterpret_borrow<py::tuple>(h);
+          if (!py::isinstance<py::tuple>(h) || pair.size() != 2)
+            throw py::type_error("handles: expected (label, vertex indices) pairs");
+          const std::string label = py::cast<std::string>(pair[0]);
+          groups.push_back({label, to_indices(pair[1], label)});
+        }
+        py::gil_scoped_release release;
+        return arap::make_constraint_set(vertex_count, fixed_group, groups);
+      },
+      py::arg("vertex_count"), py::arg("fixed"), py::arg("fixed_label"), py::arg("handles"),
+      "Fixed first, then each handle's vertices; fixed wins, the first handle wins; warnings name the group\n"
+      "that took the vertices. handles: a list of (label, vertex indices); labels name the groups in messages\n"
+      "(\"handle 'Arm'\", \"the fixed group 'Feet'\").");
+
+  py::class_<arap::MeshReport> report(m, "MeshReport",
+                                      "What bind() found in the mesh and did about it (arap/mesh_check.h); "
+                                      "report['name'] reads a field too.");
+  for (const arap::MeshReportField& f : arap::kMeshReportFields) report.def_readonly(f.name, f.member);
+  report.def("__getitem__", [](const arap::MeshReport& r, const std::string& name) {
+    for (const arap::MeshReportField& f : arap::kMeshReportFields)
+      if (name == f.name) return r.*f.member;
+    throw py::key_error(name);
+  });
+  report.def("__repr__", [](const arap::MeshReport& r) {
+    std::string text = "<MeshReport";
+    for (const arap::MeshReportField& f : arap::kMeshReportFields) text += " " + std::string(f.name) + "=" + std::to_string(r.*f.member);
+    return text + ">";
+  });
+
+  py::class_<arap::Solver> solver(m, "Solver", "Bind once per mesh and constraint set, then solve many times.");
+  solver.def(py::init<>())
       .def(
           "bind",
           [](arap::Solver& s, const py::array& rest, const py::array& triangles, const py::array& constrained,
-             const std::string& weights, const std::string& init, int max_iterations, double tolerance, int threads,
-             int anderson_window, py::object stiffness, const std::string& method, const std::string& volume,
-             int infill_resolution) {
+             py::object stiffness, const py::kwargs& options) {
             PointsView r = view_points(rest, "rest");
             arap::Triangles tri = to_triangles(triangles);
-            std::vector<int> con = to_indices(constrained);
+            std::vector<int> con = to_indices(constrained, "constrained");
             std::vector<double> stiff;
             if (!stiffness.is_none()) {
               py::array_t<double, py::array::c_style | py::array::forcecast> a(stiffness);
               if (a.ndim() != 1) throw py::value_error("stiffness: expected a flat array, one value per vertex");
               stiff.assign(a.data(), a.data() + a.size());
             }
-            arap::Options o;
-            o.method = arap::parse_method(method);
-            o.weights = arap::parse_weights(weights);
-            o.init = arap::parse_initial_guess(init);
-            o.max_iterations = max_iterations;
-            o.tolerance = tolerance;
-            o.threads = threads;
-            o.anderson_window = anderson_window;
-            o.volume = arap::parse_volume(volume);
-            o.infill_resolution = infill_resolution;
+            const arap::Options o = with_options(arap::Options(), options);
             py::gil_scoped_release release;
             s.bind(r.map(), tri, con, o, stiff);
           },
-          py::arg("rest"), py::arg("triangles"), py::arg("constrained"), py::arg("weights") = "cotan-clamped",
-          py::arg("init") = "naive", py::arg("max_iterations") = arap::Options().max_iterations,
-          py::arg("tolerance") = arap::Options().tolerance, py::arg("threads") = 1,
-          py::arg("anderson_window") = arap::Options().anderson_window, py::arg("stiffness") = py::none(),
-          py::arg("method") = "quasi-newton", py::arg("volume") = "none",
-          py::arg("infill_resolution") = arap::Options().infill_resolution,
+          py::arg("rest"), py::arg("triangles"), py::arg("constrained"), py::arg("stiffness") = py::none(),
           "rest: #V by 3 positions; triangles: #F by 3 indices; constrained: vertex indices (no duplicates);\n"
           "stiffness: optional, one value > 0 per vertex scaling its cell's energy (default all 1);\n"
-          "volume: none | global (the enclosed volume of closed parts kept exactly) | infill (a lattice\n"
-          "filling the inside, infill_resolution cubes along the longest side); global and infill work\n"
-          "with the quasi-newton and local-global methods.")
+          "options: any of OPTIONS by name (the others take their defaults).")
+      .def(
+          "configure",
+          [](arap::Solver& s, const py::kwargs& options) {
+            const arap::Options o = with_options(s.options(), options);
+            for (const arap::OptionSpec& spec : arap::option_specs())
+              if (spec.needs_bind && option_value(spec, o).not_equal(option_value(spec, s.options())))
+                throw arap::Error(arap::ErrorCode::InvalidInput, std::string("the option ") + spec.name +
+                                                                     " is fixed at bind(): bind again to change it");
+            s.options() = o;
+          },
+          "Set options by name (OPTIONS) that need no new bind; all are checked before any is kept.")
       .def(
           "solve",
           [](arap::Solver& s, const py::array& targets, py::object out) {
@@ -314,42 +386,45 @@ PYBIND11_MODULE(_arap_native, m) {
             return a;
           },
           py::arg("positions"), "dE/dp for every vertex, #V by 3 float64.")
-      .def("mesh_report", [](const arap::Solver& s) { return report_dict(s.mesh_report()); })
+      .def("mesh_report", &arap::Solver::mesh_report, py::return_value_policy::copy)
       .def_property_readonly("is_bound", &arap::Solver::is_bound)
       .def_property_readonly("vertex_count", &arap::Solver::vertex_count)
-      .def_property_readonly("bind_ms", &arap::Solver::bind_ms)
+      .def_property_readonly("bind_ms", [](const arap::Solver& s) { return s.bind_stats().total_ms; })
       .def_property_readonly("factor_nonzeros", &arap::Solver::factor_nonzeros)
-      .def_property_readonly("constrained", &arap::Solver::constrained)
-      // Options that need no re-bind.
-      .def_property(
-          "max_iterations", [](const arap::Solver& s) { return s.options().max_iterations; },
-          [](arap::Solver& s, int v) { s.options().max_iterations = v; })
-      .def_property(
-          "tolerance", [](const arap::Solver& s) { return s.options().tolerance; },
-          [](arap::Solver& s, double v) { s.options().tolerance = v; })
-      .def_property(
-          "threads", [](const arap::Solver& s) { return s.options().threads; },
-          [](arap::Solver& s, int v) { s.options().threads = v; })
-      .def_property(
-          "anderson_window", [](const arap::Solver& s) { return s.options().anderson_window; },
-          [](arap::Solver& s, int v) { s.options().anderson_window = v; })
-      .def_property(
-          "method", [](const arap::Solver& s) { return arap::to_string(s.options().method); },
-          [](arap::Solver& s, const std::string& v) { s.options().method = arap::parse_method(v); },
-          "quasi-newton | local-global | anderson")
-      .def_property(
-          "time_budget_ms", [](const arap::Solver& s) { return s.options().time_budget_ms; },
-          [](arap::Solver& s, double v) { s.options().time_budget_ms = v; },
-          "stop after the iteration that passes this many ms (0: no limit)")
-      .def_property(
-          "init", [](const arap::Solver& s) { return arap::to_string(s.options().init); },
-          [](arap::Solver& s, const std::string& v) { s.options().init = arap::parse_initial_guess(v); },
-          "laplacian | differential | naive | warm")
-      .def_property(
-          "cold_start", [](const arap::Solver& s) { return arap::to_string(s.options().cold_start); },
-          [](arap::Solver& s, const std::string& v) { s.options().cold_start = arap::parse_initial_guess(v); })
-      .def_property_readonly("weights", [](const arap::Solver& s) { return arap::to_string(s.options().weights); })
-      .def_property_readonly("volume", [](const arap::Solver& s) { return arap::to_string(s.options().volume); },
-                             "none | global | infill (set at bind)")
-      .def_property_readonly("infill_resolution", [](const arap::Solver& s) { return s.options().infill_resolution; });
+      .def_property_readonly("constrained", &arap::Solver::constrained);
+
+  // One property per option (OPTIONS); those fixed at bind() (weights, volume) are read-only.
+  for (const arap::OptionSpec& spec : arap::option_specs()) {
+    const std::string name = spec.name;
+    auto get = py::cpp_function([name](const arap::Solver& s) { return option_value(arap::option_spec(name), s.options()); });
+    if (spec.needs_bind) {
+      solver.def_property_readonly(spec.name, get);
+      continue;
+    }
+    solver.def_property(spec.name, get, py::cpp_function([name](arap::Solver& s, const py::object& value) {
+                          py::dict one;
+                          one[py::str(name)] = value;
+                          s.options() = with_options(s.options(), py::kwargs(one));
+                        }),
+                        ("the option " + name + ": " + arap::option_limits(spec)).c_str());
+  }
+
+  // Every option: {name: {"default", "min", "max"} or {"default", "choices"}}, defaults as in arap::Options().
+  py::dict specs;
+  const arap::Options defaults;
+  for (const arap::OptionSpec& spec : arap::option_specs()) {
+    py::dict d;
+    d["default"] = option_value(spec, defaults);
+    if (spec.kind == arap::OptionKind::Choice) {
+      d["choices"] = py::cast(spec.choices);
+    } else {
+      d["kind"] = spec.kind == arap::OptionKind::Integer ? "int" : "float";
+      d["min"] = spec.kind == arap::OptionKind::Integer ? py::object(py::int_(static_cast<long long>(spec.min)))
+                                                       : py::object(py::float_(spec.min));
+      d["max"] = spec.kind == arap::OptionKind::Integer ? py::object(py::int_(static_cast<long long>(spec.max)))
+                                                       : py::object(py::float_(spec.max));
+    }
+    specs[spec.name] = d;
+  }
+  m.attr("OPTIONS") = specs;
 }

@@ -15,8 +15,7 @@ bool is_degenerate_triangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, 
   return !(twice_area > kDegenerateRelativeArea * longest2);
 }
 
-int label_components(const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& rest,
-                     const Eigen::Ref<const Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>& triangles,
+int label_components(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
                      std::vector<int>& component_of_vertex) {
   const int n = static_cast<int>(rest.rows());
   UnionFind sets(n);

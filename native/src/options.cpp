@@ -1,5 +1,9 @@
 #include "arap/options.h"
 
+#include <cmath>
+#include <limits>
+#include <sstream>
+
 #include "arap/errors.h"
 
 namespace arap {
@@ -70,6 +74,126 @@ std::string to_string(Volume v) {
     case Volume::Infill: return "infill";
   }
   return "?";
+}
+
+namespace {
+
+// A number as users write it: 1000000 rather than 1e+06.
+std::string shown(double x) {
+  std::ostringstream out;
+  out.precision(15);
+  out << x;
+  return out.str();
+}
+
+std::string joined(const std::vector<std::string>& names) {
+  std::string out;
+  for (std::size_t k = 0; k < names.size(); ++k)
+    out += (k == 0 ? "" : k + 1 == names.size() ? " or " : ", ") + names[k];
+  return out;
+}
+
+constexpr double kUnbounded = std::numeric_limits<double>::infinity();
+
+std::vector<OptionSpec> make_specs() {
+  std::vector<OptionSpec> specs;
+  OptionSpec o{};
+  o = {"method", OptionKind::Choice};
+  o.choices = {"quasi-newton", "local-global", "anderson"};
+  o.get_choice = [](const Options& x) { return to_string(x.method); };
+  o.set_choice = [](Options& x, const std::string& v) { x.method = parse_method(v); };
+  specs.push_back(o);
+  o = {"weights", OptionKind::Choice};
+  o.choices = {"cotan-clamped", "cotan", "uniform"};
+  o.get_choice = [](const Options& x) { return to_string(x.weights); };
+  o.set_choice = [](Options& x, const std::string& v) { x.weights = parse_weights(v); };
+  o.needs_bind = true;
+  specs.push_back(o);
+  o = {"init", OptionKind::Choice};
+  o.choices = {"naive", "laplacian", "differential", "warm"};
+  o.get_choice = [](const Options& x) { return to_string(x.init); };
+  o.set_choice = [](Options& x, const std::string& v) { x.init = parse_initial_guess(v); };
+  specs.push_back(o);
+  o = {"cold_start", OptionKind::Choice};
+  o.choices = {"naive", "laplacian", "differential"};
+  o.get_choice = [](const Options& x) { return to_string(x.cold_start); };
+  o.set_choice = [](Options& x, const std::string& v) { x.cold_start = parse_initial_guess(v); };
+  specs.push_back(o);
+  // The cap bounds what a solve reserves for its statistics (16 bytes an iteration).
+  o = {"max_iterations", OptionKind::Integer, 0, 1000000};
+  o.get_number = [](const Options& x) { return double(x.max_iterations); };
+  o.set_number = [](Options& x, double v) { x.max_iterations = static_cast<int>(v); };
+  specs.push_back(o);
+  o = {"tolerance", OptionKind::Real, 0, 1};
+  o.get_number = [](const Options& x) { return x.tolerance; };
+  o.set_number = [](Options& x, double v) { x.tolerance = v; };
+  specs.push_back(o);
+  o = {"threads", OptionKind::Integer, 1, 64};
+  o.get_number = [](const Options& x) { return double(x.threads); };
+  o.set_number = [](Options& x, double v) { x.threads = static_cast<int>(v); };
+  specs.push_back(o);
+  o = {"anderson_window", OptionKind::Integer, 0, 20};
+  o.get_number = [](const Options& x) { return double(x.anderson_window); };
+  o.set_number = [](Options& x, double v) { x.anderson_window = static_cast<int>(v); };
+  specs.push_back(o);
+  o = {"volume", OptionKind::Choice};
+  o.choices = {"none", "global", "infill"};
+  o.get_choice = [](const Options& x) { return to_string(x.volume); };
+  o.set_choice = [](Options& x, const std::string& v) { x.volume = parse_volume(v); };
+  o.needs_bind = true;
+  specs.push_back(o);
+  o = {"infill_resolution", OptionKind::Integer, 2, 256};
+  o.get_number = [](const Options& x) { return double(x.infill_resolution); };
+  o.set_number = [](Options& x, double v) { x.infill_resolution = static_cast<int>(v); };
+  o.needs_bind = true;
+  specs.push_back(o);
+  o = {"time_budget_ms", OptionKind::Real, 0, kUnbounded};
+  o.get_number = [](const Options& x) { return x.time_budget_ms; };
+  o.set_number = [](Options& x, double v) { x.time_budget_ms = v; };
+  specs.push_back(o);
+  return specs;
+}
+
+}  // namespace
+
+const std::vector<OptionSpec>& option_specs() {
+  static const std::vector<OptionSpec> specs = make_specs();
+  return specs;
+}
+
+const OptionSpec& option_spec(const std::string& name) {
+  std::vector<std::string> names;
+  for (const OptionSpec& o : option_specs()) {
+    if (name == o.name) return o;
+    names.push_back(o.name);
+  }
+  throw Error(ErrorCode::InvalidInput, "unknown option '" + name + "' (expected " + joined(names) + ")");
+}
+
+std::string option_limits(const OptionSpec& o) {
+  if (o.kind == OptionKind::Choice) return joined(o.choices);
+  const std::string what = o.kind == OptionKind::Integer ? "an integer" : "a finite number";
+  return what + (std::isfinite(o.max) ? " between " + shown(o.min) + " and " + shown(o.max) : " >= " + shown(o.min));
+}
+
+void check_options(const Options& options) {
+  for (const OptionSpec& o : option_specs()) {
+    if (o.kind == OptionKind::Choice) {
+      const std::string value = o.get_choice(options);
+      bool known = false;
+      for (const std::string& c : o.choices) known = known || c == value;
+      if (!known) throw Error(ErrorCode::InvalidInput, std::string(o.name) + " must be " + option_limits(o) + ", not " + value);
+      continue;
+    }
+    const double v = o.get_number(options);
+    if (!(std::isfinite(v) && v >= o.min && v <= o.max))
+      throw Error(ErrorCode::InvalidInput, std::string(o.name) + " must be " + option_limits(o) + ", got " + shown(v));
+  }
+  // Anderson's extrapolated points are not checked against the volume terms.
+  if (options.volume != Volume::None && options.method == Method::Anderson)
+    throw Error(ErrorCode::InvalidInput, "volume " + to_string(options.volume) +
+                                             " works with the quasi-newton and local-global methods, not anderson "
+                                             "(its extrapolated points are not checked against the volume terms)");
 }
 
 }  // namespace arap

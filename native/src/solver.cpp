@@ -26,30 +26,6 @@ double ms_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-void check_options(const Options& o) {
-  if (o.max_iterations < 0) throw Error(ErrorCode::InvalidInput, "iterations must be >= 0");
-  if (!(o.tolerance >= 0) || !std::isfinite(o.tolerance))
-    throw Error(ErrorCode::InvalidInput, "tolerance must be a finite number >= 0");
-  if (o.threads < 1) throw Error(ErrorCode::InvalidInput, "threads must be >= 1");
-  if (o.method != Method::QuasiNewton && o.method != Method::LocalGlobal && o.method != Method::Anderson)
-    throw Error(ErrorCode::InvalidInput, "unknown method");
-  if (o.anderson_window < 0 || o.anderson_window > 20)
-    throw Error(ErrorCode::InvalidInput, "anderson window must be between 0 and 20");
-  if (!(o.time_budget_ms >= 0) || !std::isfinite(o.time_budget_ms))
-    throw Error(ErrorCode::InvalidInput, "the time budget must be a finite number of milliseconds >= 0");
-  if (o.cold_start == InitialGuess::WarmStart)
-    throw Error(ErrorCode::InvalidInput, "the cold-start guess cannot itself be a warm start");
-  if (o.volume != Volume::None && o.volume != Volume::Global && o.volume != Volume::Infill)
-    throw Error(ErrorCode::InvalidInput, "unknown volume mode");
-  if (o.infill_resolution < 2 || o.infill_resolution > 256)
-    throw Error(ErrorCode::InvalidInput, "the infill resolution must be between 2 and 256 cells");
-  if (o.volume != Volume::None && o.method == Method::Anderson)
-    throw Error(ErrorCode::InvalidInput,
-                "volume " + to_string(o.volume) +
-                    " works with the quasi-newton and local-global methods, not anderson (its extrapolated points "
-                    "are not checked against the volume terms)");
-}
-
 double dot(const std::vector<double>& a, const std::vector<double>& b) {
   double sum = 0;
   for (size_t k = 0; k < a.size(); ++k) sum += a[k] * b[k];
@@ -552,7 +528,6 @@ bool Solver::is_bound() const { return impl_->bound; }
 int Solver::vertex_count() const { return impl_->mesh.input_n; }
 const std::vector<int>& Solver::constrained() const { return impl_->constrained_input; }
 const MeshReport& Solver::mesh_report() const { return impl_->mesh.report; }
-double Solver::bind_ms() const { return impl_->bind_stats.total_ms; }
 const BindStats& Solver::bind_stats() const { return impl_->bind_stats; }
 long Solver::factor_nonzeros() const { return impl_->laplacian.nonzeros(); }
 

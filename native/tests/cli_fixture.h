@@ -14,7 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "arap/mesh_io.h"
+#include "arap/io/mesh_io.h"
+#include "arap/io/polygons.h"
 #include "arap/procedural.h"
 
 namespace arap_test {
@@ -63,7 +64,6 @@ class TempDir : public ::testing::Test {
   std::vector<int> fixed_, handle_;
 };
 
-#ifdef ARAP_DEFORM_EXE
 
 struct Result {
   int code = -1;
@@ -100,6 +100,5 @@ class Cli : public TempDir {
   }
 };
 
-#endif  // ARAP_DEFORM_EXE
 
 }  // namespace arap_test

@@ -14,9 +14,11 @@
 #include <vector>
 
 #include "arap/errors.h"
-#include "arap/mesh_io.h"
+#include "arap/options.h"
+#include "arap/io/mesh_io.h"
+#include "arap/io/polygons.h"
 #include "arap/procedural.h"
-#include "arap/scenario.h"
+#include "arap/io/scenario.h"
 #include "cli_fixture.h"
 
 namespace {
@@ -43,7 +45,7 @@ TEST_F(Scenario, ParsesMeshPathHandlesAndMatrices) {
   arap::Points rest(5, 3);
   rest << 0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 1, 2, 3, 4;
   const arap::io::Constraints c = arap::io::build_constraints(rest, s.fixed, s.handles);
-  EXPECT_EQ(c.indices, (std::vector<int>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(c.constrained, (std::vector<int>{0, 1, 2, 3, 4}));
   EXPECT_EQ(c.fixed_count, 2);
   EXPECT_TRUE(c.warnings.empty());
   EXPECT_EQ(c.targets.row(1), rest.row(1));                       // fixed: at rest
@@ -58,10 +60,29 @@ TEST_F(Scenario, FixedWinsOverHandleWithAWarning) {
   h.vertices = {1, 2, 3};
   h.translate = Eigen::Vector3d(1, 0, 0);
   const arap::io::Constraints c = arap::io::build_constraints(rest, {1, 1, 0}, {h});
-  EXPECT_EQ(c.indices, (std::vector<int>{1, 0, 2, 3}));  // repeats ignored, vertex 1 stays fixed
+  EXPECT_EQ(c.constrained, (std::vector<int>{1, 0, 2, 3}));  // repeats ignored, vertex 1 stays fixed
   EXPECT_EQ(c.targets.row(0), rest.row(1));
   ASSERT_EQ(c.warnings.size(), 1u);
   EXPECT_NE(c.warnings[0].find("fixed"), std::string::npos);
+}
+
+// The rule of arap/constraints.h through the scenario layer: the first handle
+// keeps a shared vertex (its target), the later one is ignored once it has
+// none of its own, and the warnings name handle 0.
+TEST_F(Scenario, AVertexInTwoHandlesFollowsTheFirst) {
+  arap::Points rest(4, 3);
+  rest << 0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0;
+  arap::io::Handle first, second;
+  first.vertices = {1, 2};
+  first.translate = Eigen::Vector3d(0, 0, 1);
+  second.vertices = {2, 3};
+  second.translate = Eigen::Vector3d(0, 0, -1);
+  const arap::io::Constraints c = arap::io::build_constraints(rest, {0}, {first, second});
+  EXPECT_EQ(c.constrained, (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_EQ(c.targets(2, 2), 1.0);   // vertex 2 follows handle 0
+  EXPECT_EQ(c.targets(3, 2), -1.0);  // vertex 3 is handle 1's own
+  ASSERT_EQ(c.warnings.size(), 1u);
+  EXPECT_EQ(c.warnings[0], "Handle 1: 1 of its vertices are also in handle 0 and follow that one");
 }
 
 TEST_F(Scenario, ErrorsAreTyped) {
@@ -75,13 +96,6 @@ TEST_F(Scenario, ErrorsAreTyped) {
     EXPECT_EQ(e.code(), arap::ErrorCode::IndexOutOfRange);
   }
   h.vertices = {1};
-  arap::io::Handle h2 = h;
-  try {
-    arap::io::build_constraints(rest, {}, {h, h2});
-    FAIL();
-  } catch (const arap::Error& e) {
-    EXPECT_EQ(e.code(), arap::ErrorCode::DuplicateConstraint);
-  }
   h.matrix(0, 0) = std::numeric_limits<double>::infinity();
   try {
     arap::io::build_constraints(rest, {}, {h});
@@ -135,7 +149,6 @@ TEST_F(Scenario, MalformedFilesAreRefused) {
 
 // ---------------------------------------------------------------- arap-deform
 
-#ifdef ARAP_DEFORM_EXE
 
 using arap_test::Cli;
 using arap_test::Result;
@@ -243,6 +256,20 @@ TEST_F(Cli, ScenarioWithMatrixHandleAndOverlapWarning) {
   EXPECT_LT((out.vertices.row(fixed_[0]) - bar.vertices.row(fixed_[0])).norm(), 1e-9);
 }
 
+// A vertex in two handles follows the first (it was an error before issue 13):
+// the run succeeds, the warning names handle 0, the vertex lands on handle 0's target.
+TEST_F(Cli, AVertexInTwoHandlesFollowsTheFirstWithAWarning) {
+  const auto bar = make_bar_files("bar.off");
+  write("second.txt", join({handle_[0], handle_[1]}));
+  const Result r = run("bar.off --fixed fixed.txt --handle handle.txt --translate 0,0,1 --handle second.txt "
+                       "--translate 0,0,-1 --iterations 3 --tolerance 0 --output out.off --quiet");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err, "arap-deform: warning: Handle 1: 2 of its vertices are also in handle 0 and follow that one\n"
+                   "arap-deform: warning: Handle 1 has no vertices of its own: ignored\n");
+  const arap::io::PolygonMesh out = arap::io::read_mesh(path("out.off"));
+  EXPECT_NEAR(out.vertices(handle_[0], 2), bar.vertices(handle_[0], 2) + 1, 1e-9);
+}
+
 TEST_F(Cli, KeepsPolygonsAndRotatesHandles) {
   // A 1 x 4 strip of quads (a flat ribbon), fixed at x = 0, turned at x = 4.
   std::string off = "OFF\n10 4 0\n";
@@ -267,6 +294,27 @@ TEST_F(Cli, HelpExitsZero) {
   const Result r = run("--help");
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.out.find("fixed wins"), std::string::npos);
+  EXPECT_NE(r.out.find("the first handle wins"), std::string::npos);
+}
+
+// The flags take their limits and messages from arap::option_specs(), the
+// limits the library and the add-on use: the bounds themselves are accepted.
+TEST_F(Cli, OptionLimitsAreTheLibrarys) {
+  const auto bar = make_bar_files();
+  const std::string ok = "bar.obj --fixed fixed.txt --handle handle.txt --translate 1,0,0 -q --output out.obj";
+  Result r = run(ok + " --method anderson --anderson 20 --threads 64 --tolerance 1 --iterations 1");
+  EXPECT_EQ(r.code, 0) << r.err;
+  // No iteration: the first guess (the rest shape with the handle moved) is written.
+  r = run(ok + " --iterations 0");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const arap::io::PolygonMesh out = arap::io::read_mesh(path("out.obj"));
+  for (int v : {handle_[0], fixed_[0]})
+    EXPECT_NEAR(out.vertices(v, 0), bar.vertices(v, 0) + (v == handle_[0] ? 1 : 0), 1e-6);
+  r = run(ok + " --anderson 21");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "arap-deform: --anderson expects " + arap::option_limits(arap::option_spec("anderson_window")) +
+                       ", got '21' (see --help)\n");
+  EXPECT_NE(r.err.find("between 0 and 20"), std::string::npos);
 }
 
 TEST_F(Cli, BadArgumentsExitTwo) {
@@ -282,7 +330,9 @@ TEST_F(Cli, BadArgumentsExitTwo) {
   expect_bad_input("bar.obj --fixed nothere.txt");
   expect_bad_input("bar.obj " + ok + " --bogus");
   expect_bad_input("bar.obj " + ok + " --iterations abc");
-  expect_bad_input("bar.obj " + ok + " --iterations 0");
+  expect_bad_input("bar.obj " + ok + " --iterations 1000001");
+  expect_bad_input("bar.obj " + ok + " --tolerance 2");
+  expect_bad_input("bar.obj " + ok + " --method anderson --anderson 21");
   expect_bad_input("bar.obj " + ok + " --weights nonsense");
   expect_bad_input("bar.obj " + ok + " --init sideways");
   expect_bad_input("bar.obj " + ok + " --tolerance nan");
@@ -325,6 +375,5 @@ TEST_F(Cli, HostileMeshFilesExitTwo) {
   }
 }
 
-#endif  // ARAP_DEFORM_EXE
 
 }  // namespace

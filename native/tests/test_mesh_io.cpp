@@ -10,7 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "arap/mesh_io.h"
+#include "arap/io/mesh_io.h"
+#include "arap/io/polygons.h"
 
 namespace {
 

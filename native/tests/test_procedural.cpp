@@ -82,6 +82,59 @@ TEST(Procedural, SphereHitsTheTargetCountAndIsSmooth) {
   }
 }
 
+// Every quad's diagonal is its shorter one: no needlessly obtuse angles.
+TEST(Procedural, EllipsoidHasItsSemiAxesAndShortDiagonals) {
+  const TriMesh m = arap::procedural::make_ellipsoid(3000, Eigen::Vector3d(1, 1, 2));
+  EXPECT_NEAR(static_cast<double>(m.vertices.rows()), 3000, 450);
+  check_sphere_topology(m);
+  EXPECT_NEAR(signed_volume(m), 4.0 / 3.0 * M_PI * 2, 0.05);
+  EXPECT_NEAR(m.vertices.col(2).maxCoeff(), 2.0, 1e-12);
+  EXPECT_NEAR(m.vertices.col(0).minCoeff(), -1.0, 1e-12);
+  for (Eigen::Index q = 0; q < m.triangles.rows(); q += 2) {
+    // The two triangles of a quad share their diagonal; the quad's other two corners are farther apart.
+    const auto t0 = m.triangles.row(q), t1 = m.triangles.row(q + 1);
+    std::vector<int> shared, other;
+    for (int k = 0; k < 3; ++k) ((t1.array() == t0(k)).any() ? shared : other).push_back(t0(k));
+    for (int k = 0; k < 3; ++k)
+      if (!(t0.array() == t1(k)).any()) other.push_back(t1(k));
+    ASSERT_EQ(shared.size(), 2u);
+    ASSERT_EQ(other.size(), 2u);
+    const double diagonal = (m.vertices.row(shared[0]) - m.vertices.row(shared[1])).squaredNorm();
+    EXPECT_LE(diagonal, (m.vertices.row(other[0]) - m.vertices.row(other[1])).squaredNorm() * (1 + 1e-12));
+  }
+}
+
+TEST(Procedural, TorusIsClosedWithGenusOne) {
+  const TriMesh m = arap::procedural::make_torus(24, 12, 2.0, 0.5);
+  EXPECT_EQ(m.vertices.rows(), 24 * 12);
+  const long edges = check_closed_oriented(m);
+  EXPECT_EQ(m.vertices.rows() - edges + m.triangles.rows(), 0);  // Euler characteristic of a torus
+  // Outward (positive), a little under the smooth torus's 2 pi^2 R r^2 (polygonal sections).
+  const double smooth = 2 * M_PI * M_PI * 2.0 * 0.25;
+  EXPECT_GT(signed_volume(m), 0.9 * smooth);
+  EXPECT_LT(signed_volume(m), smooth);
+}
+
+TEST(Procedural, BendHoldsTheBottomAndMovesTheTopAlongTheLongestSide) {
+  // Longest side along x: the bend picks by x and shifts along y.
+  const TriMesh m = arap::procedural::make_bar(20, 2, 2, 5.0, 1.0, 1.0);
+  const auto b = arap::procedural::bend(m.vertices, 0.3);
+  ASSERT_GT(b.fixed_count, 0);
+  ASSERT_GT(static_cast<int>(b.constrained.size()), b.fixed_count);
+  ASSERT_EQ(b.targets.rows(), static_cast<Eigen::Index>(b.constrained.size()));
+  for (int k = 0; k < static_cast<int>(b.constrained.size()); ++k) {
+    const int v = b.constrained[k];
+    Eigen::RowVector3d expected = m.vertices.row(v);
+    if (k < b.fixed_count) {
+      EXPECT_LE(m.vertices(v, 0), 1.0 + 1e-9);
+    } else {
+      EXPECT_GE(m.vertices(v, 0), 4.75 - 1e-9);
+      expected.y() += 0.3 * 5.0;
+    }
+    EXPECT_TRUE(b.targets.row(k).isApprox(expected)) << "vertex " << v;
+  }
+}
+
 TEST(Procedural, Deterministic) {
   const TriMesh a = arap::procedural::make_sphere(777), b = arap::procedural::make_sphere(777);
   EXPECT_TRUE(a.vertices == b.vertices);
@@ -111,6 +164,9 @@ TEST(Procedural, BadArgumentsThrow) {
   EXPECT_THROW(arap::procedural::make_cylinder(2, 1, 1, 1), arap::Error);
   EXPECT_THROW(arap::procedural::make_sphere(3), arap::Error);
   EXPECT_THROW(arap::procedural::pick_by_height(arap::Points(0, 3)), arap::Error);
+  EXPECT_THROW(arap::procedural::make_ellipsoid(100, Eigen::Vector3d(1, 0, 1)), arap::Error);
+  EXPECT_THROW(arap::procedural::make_torus(3, 3, 1.0, 1.0), arap::Error);
+  EXPECT_THROW(arap::procedural::bend(arap::Points(0, 3)), arap::Error);
 }
 
 }  // namespace

@@ -6,12 +6,14 @@
 #include <Eigen/Geometry>
 
 #include "arap/solver.h"
+#include "gradient_check.h"
 #include "reference_arap.h"
 #include "test_meshes.h"
 
 namespace {
 
 using arap_test::concat;
+using arap_test::expect_gradient_matches_finite_differences;
 using arap_test::ring_vertices;
 using arap_test::rows_of;
 
@@ -36,21 +38,6 @@ arap::Options options_with(arap::InitialGuess init, int iterations, double toler
   o.max_iterations = iterations;
   o.tolerance = tolerance;
   return o;
-}
-
-// dE/dp from energy_gradient() against central differences of energy() at a few vertices.
-void expect_gradient_matches_finite_differences(const arap::Solver& solver, const std::vector<int>& vertices) {
-  const arap::Points P = solver.positions();
-  const arap::Points gradient = solver.energy_gradient(P);
-  const double h = 1e-6;
-  for (int v : vertices)
-    for (int d = 0; d < 3; ++d) {
-      arap::Points plus = P, minus = P;
-      plus(v, d) += h;
-      minus(v, d) -= h;
-      const double numeric = (solver.energy(plus) - solver.energy(minus)) / (2 * h);
-      EXPECT_NEAR(gradient(v, d), numeric, 1e-5 * (1 + std::abs(numeric))) << "vertex " << v << " axis " << d;
-    }
 }
 
 TEST(Solver, RigidMotionOfAllConstraintsGivesTheRigidlyMovedMesh) {

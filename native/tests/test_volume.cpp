@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "arap/errors.h"
-#include "arap/mesh_io.h"
+#include "arap/io/mesh_io.h"
 #include "arap/procedural.h"
-#include "arap/shape_measures.h"
+#include "arap/io/shape_measures.h"
 #include "arap/solver.h"
 #include "cli_fixture.h"
 

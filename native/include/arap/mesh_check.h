@@ -5,7 +5,7 @@
 
 #include <vector>
 
-#include <Eigen/Core>
+#include "arap/types.h"
 
 namespace arap {
 
@@ -36,6 +36,27 @@ struct MeshReport {
   int infill_nodes = 0;
 };
 
+// Every field of MeshReport by name, in declaration order: the one list the
+// command line's JSON report and the Python module's MeshReport read.
+struct MeshReportField {
+  const char* name;
+  int MeshReport::*member;
+};
+inline constexpr MeshReportField kMeshReportFields[] = {
+    {"vertices", &MeshReport::vertices},
+    {"triangles", &MeshReport::triangles},
+    {"degenerate_triangles", &MeshReport::degenerate_triangles},
+    {"isolated_vertices", &MeshReport::isolated_vertices},
+    {"components", &MeshReport::components},
+    {"unconstrained_components", &MeshReport::unconstrained_components},
+    {"unconstrained_vertices", &MeshReport::unconstrained_vertices},
+    {"nonmanifold_edges", &MeshReport::nonmanifold_edges},
+    {"volume_kept_components", &MeshReport::volume_kept_components},
+    {"volume_open_components", &MeshReport::volume_open_components},
+    {"infill_cells", &MeshReport::infill_cells},
+    {"infill_nodes", &MeshReport::infill_nodes},
+};
+
 // A triangle is degenerate when twice its area is below this fraction of the
 // square of its longest edge: its smallest angle is then below ~1e-12 radians
 // and its cotangents would overflow the weights.
@@ -43,8 +64,7 @@ constexpr double kDegenerateRelativeArea = 1e-12;
 
 // Component id of every vertex over non-degenerate triangles (-1 for isolated
 // vertices); returns the number of components.
-int label_components(const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& rest,
-                     const Eigen::Ref<const Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>& triangles,
+int label_components(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
                      std::vector<int>& component_of_vertex);
 
 bool is_degenerate_triangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c);

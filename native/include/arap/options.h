@@ -1,8 +1,11 @@
-// Settings of the ARAP engine. The names and defaults match the Blender
-// add-on's properties and the command-line flags.
+// Settings of the ARAP engine, and their one definition (option_specs()):
+// names, defaults and limits that check_options(), the command line and the
+// Python module (OPTIONS) read from here; a Blender test checks the add-on's
+// settings against OPTIONS (same defaults, limits within these).
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace arap {
 
@@ -58,6 +61,39 @@ struct Options {
   // Volume::Infill: lattice cells along the longest side of the mesh's bounding box (2..256).
   int infill_resolution = 10;
 };
+
+// One option as users name and set it. A new option is a field of Options
+// and one entry of option_specs(): the command line, the module, the report
+// and the add-on's properties take it from there.
+enum class OptionKind { Choice, Integer, Real };
+
+struct OptionSpec {
+  const char* name;  // the field's name: Python keyword and property, report key ("max_iterations")
+  OptionKind kind;
+  // Integer and Real: the accepted range, bounds included (Real: also finite).
+  double min = 0, max = 0;
+  // Choice: the accepted names ("cotan-clamped", ...).
+  std::vector<std::string> choices;
+  // Read and write the field: Choice as its name, Integer and Real as a number
+  // (set() stores without checking; check_options() checks).
+  std::string (*get_choice)(const Options&) = nullptr;
+  void (*set_choice)(Options&, const std::string&) = nullptr;
+  double (*get_number)(const Options&) = nullptr;
+  void (*set_number)(Options&, double) = nullptr;
+  // Fixed at Solver::bind() (the weights, the volume terms): changing it needs a new bind.
+  bool needs_bind = false;
+};
+
+// Every option, in a fixed order; the defaults are those of Options().
+const std::vector<OptionSpec>& option_specs();
+// The option called `name`; throws Error(InvalidInput) naming the known ones.
+const OptionSpec& option_spec(const std::string& name);
+// What the option accepts, for messages: "an integer between 0 and 20",
+// "a finite number >= 0", "quasi-newton, local-global or anderson".
+std::string option_limits(const OptionSpec& spec);
+// Throws Error(InvalidInput), naming the option and its limits, unless every
+// option is within them (and cold_start is not WarmStart).
+void check_options(const Options& options);
 
 // Parse / print the names used on the command line and in Python ("cotan-clamped").
 Weights parse_weights(const std::string& name);

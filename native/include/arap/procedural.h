@@ -1,11 +1,12 @@
-// Deterministic closed triangle meshes for tests, demos and benchmarks, and
-// a helper that picks "hold the bottom, move the top" constraint sets.
+// Deterministic closed triangle meshes for tests, demos and benchmarks, of the
+// kinds in ../shared/meshes (bars, cylinders, smooth blobs, a torus), and
+// the "hold the bottom, move the top" constraint sets they are bent with.
 // All meshes are closed 2-manifolds with outward-facing triangles.
 #pragma once
 
 #include <vector>
 
-#include "arap/solver.h"
+#include "arap/types.h"
 
 namespace arap::procedural {
 
@@ -35,6 +36,18 @@ TriMesh make_cylinder(int segments, int rings, double radius, double height);
 // as close as possible to `target_vertices` (at least 8).
 TriMesh make_sphere(int target_vertices, double radius = 1.0, double bumpiness = 0.1);
 
+// An ellipsoid with semi-axes `semi_axes`: a cube's surface lattice warped
+// onto it so that the cells come out of similar size, each quad split along
+// its shorter diagonal (no needlessly obtuse angles, whose negative cotangent
+// weights make the `cotan` energy indefinite). #V = 6 n^2 + 2 nearest
+// `target_vertices` (at least 8).
+TriMesh make_ellipsoid(int target_vertices, const Eigen::Vector3d& semi_axes);
+
+// A torus around the z axis: `around` rings of `segments` vertices each
+// (both >= 3), ring radius `minor_radius` at distance `major_radius` from the
+// axis. #V = around * segments.
+TriMesh make_torus(int around, int segments, double major_radius, double minor_radius);
+
 struct HeightConstraints {
   std::vector<int> fixed;   // vertices in the lowest `fixed_fraction` of the height range
   std::vector<int> handle;  // vertices in the highest `handle_fraction` of the height range
@@ -45,5 +58,15 @@ struct HeightConstraints {
 // extent (small tolerance so that lattice rows on the boundary are included).
 HeightConstraints pick_by_height(const Points& vertices, int axis = 2, double fixed_fraction = 0.2,
                                  double handle_fraction = 0.05);
+
+// The bend that the benchmark and the property tests pose every mesh with:
+// pick_by_height() along the longest side of the bounding box, the handle
+// moved by `shift` times that side's length along the next axis.
+struct Bend {
+  std::vector<int> constrained;  // fixed vertices first, then the handle's
+  int fixed_count = 0;
+  Points targets;                // #constrained by 3, in that order
+};
+Bend bend(const Points& vertices, double shift = 0.3);
 
 }  // namespace arap::procedural

@@ -2,7 +2,7 @@
 // edge weightings fairly (the ARAP energy itself depends on the weights).
 #pragma once
 
-#include "arap/solver.h"
+#include "arap/types.h"
 
 namespace arap {
 

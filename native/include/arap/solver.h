@@ -9,18 +9,12 @@
 #include <memory>
 #include <vector>
 
-#include <Eigen/Core>
-
 #include "arap/errors.h"
 #include "arap/mesh_check.h"
 #include "arap/options.h"
+#include "arap/types.h"
 
 namespace arap {
-
-// #V by 3 positions, row-major so that numpy (n, 3) buffers map without copies.
-using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
-// #F by 3 vertex indices of triangles.
-using Triangles = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
 struct SolveStats {
   double initial_energy = 0;          // energy of the first guess
@@ -91,7 +85,6 @@ class Solver {
   int vertex_count() const;
   const std::vector<int>& constrained() const;
   const MeshReport& mesh_report() const;
-  double bind_ms() const;
   const BindStats& bind_stats() const;
   // Nonzeros of the Cholesky factor of the free block (memory and solve cost follow it).
   long factor_nonzeros() const;

@@ -1,15 +1,14 @@
-#include "arap/scenario.h"
+#include "arap/io/scenario.h"
 
-#include <array>
 #include <climits>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <unordered_map>
 
 #include "arap/errors.h"
-#include "arap/mesh_io.h"
+#include "arap/io/files.h"
+#include "arap/io/numbers.h"
 
 namespace arap::io {
 namespace {
@@ -44,16 +43,6 @@ std::vector<int> index_list(const std::string& path, const json& j, const std::s
     out.push_back(static_cast<int>(v.get<long long>()));
   }
   return out;
-}
-
-// Devices and FIFOs (/dev/zero, a pipe) would be read forever.
-void require_regular_file(const std::string& path, const std::string& what) {
-  std::error_code ec;
-  const auto st = std::filesystem::status(path, ec);
-  if (ec || !std::filesystem::exists(st)) throw FileError(path + ": cannot open the " + what + " (no such file)");
-  if (!std::filesystem::is_regular_file(st)) throw FileError(path + ": the " + what + " is not a regular file");
-  if (std::filesystem::file_size(path, ec) > (std::uintmax_t(1) << 30) || ec)
-    throw FileError(path + ": the " + what + " is larger than 1 GiB");
 }
 
 double number(const std::string& path, const json& j, const std::string& where) {
@@ -144,65 +133,27 @@ std::vector<int> read_index_file(const std::string& path) {
   std::vector<int> out;
   std::string token;
   while (in >> token) {
-    long long v = 0;
-    bool ok = !token.empty() && token.size() <= 10;
-    for (char c : token) ok = ok && c >= '0' && c <= '9';
-    if (ok) v = std::stoll(token);
-    if (!ok || v > INT_MAX) throw FileError(path + ": '" + token.substr(0, 20) + "' is not a vertex index");
+    long long v = -1;
+    if (token[0] < '0' || token[0] > '9' || !parse_integer(token, v) || v > INT_MAX)
+      throw FileError(path + ": '" + token.substr(0, 20) + "' is not a vertex index");
     out.push_back(static_cast<int>(v));
   }
   return out;
 }
 
 Constraints build_constraints(const Points& rest, const std::vector<int>& fixed, const std::vector<Handle>& handles) {
-  const int n = static_cast<int>(rest.rows());
-  auto check = [n](int i, const std::string& where) {
-    if (i < 0 || i >= n)
-      throw Error(ErrorCode::IndexOutOfRange,
-                  where + " refers to vertex " + std::to_string(i) + ", outside [0, " + std::to_string(n) + ")");
-  };
-  Constraints c;
-  // owner: -1 fixed, k >= 0 handle k.
-  std::unordered_map<int, int> owner;
-  std::vector<std::array<double, 3>> targets;
-  for (int i : fixed) {
-    check(i, "a fixed vertex");
-    if (!owner.emplace(i, -1).second) continue;
-    c.indices.push_back(i);
-    targets.push_back({rest(i, 0), rest(i, 1), rest(i, 2)});
-  }
-  c.fixed_count = static_cast<int>(c.indices.size());
+  std::vector<ConstraintGroup> groups;
+  std::vector<Eigen::Matrix4d> transforms;
   for (std::size_t k = 0; k < handles.size(); ++k) {
-    const Handle& h = handles[k];
-    const std::string where = "handle " + std::to_string(k);
-    int overridden = 0;
-    for (int i : h.vertices) {
-      check(i, where);
-      auto [it, inserted] = owner.emplace(i, static_cast<int>(k));
-      if (!inserted) {
-        if (it->second == -1) {
-          ++overridden;  // fixed wins
-        } else if (it->second != static_cast<int>(k)) {
-          throw Error(ErrorCode::DuplicateConstraint, "vertex " + std::to_string(i) + " is in handle " +
-                                                          std::to_string(it->second) + " and in " + where);
-        }
-        continue;
-      }
-      const Eigen::Vector3d p = rest.row(i).transpose();
-      const Eigen::Vector3d t = h.matrix.topLeftCorner<3, 3>() * p + h.matrix.topRightCorner<3, 1>() + h.translate;
-      if (!t.allFinite())
-        throw Error(ErrorCode::NonFinite, where + " moves vertex " + std::to_string(i) + " to a non-finite position");
-      c.indices.push_back(i);
-      targets.push_back({t[0], t[1], t[2]});
-    }
-    if (overridden > 0)
-      c.warnings.push_back("warning: " + std::to_string(overridden) + " vertices of " + where +
-                           " are also fixed; they stay fixed");
+    groups.push_back({"handle " + std::to_string(k), handles[k].vertices});
+    Eigen::Matrix4d m = handles[k].matrix;
+    m.topRightCorner<3, 1>() += handles[k].translate;
+    transforms.push_back(m);
   }
-  if (c.indices.empty()) throw Error(ErrorCode::NoConstraints, "no fixed or handle vertex given");
-  c.targets.resize(static_cast<Eigen::Index>(targets.size()), 3);
-  for (std::size_t r = 0; r < targets.size(); ++r)
-    for (int d = 0; d < 3; ++d) c.targets(static_cast<Eigen::Index>(r), d) = targets[r][d];
+  Constraints c;
+  static_cast<ConstraintSet&>(c) =
+      make_constraint_set(static_cast<int>(rest.rows()), {"the fixed list", fixed}, groups);
+  c.targets = constraint_targets(c, rest, transforms);
   return c;
 }
 

@@ -4,11 +4,10 @@
 // (0.1 came out as 0.10000000149011612), and its PLY writer dereferences
 // kernel() for custom properties. So the three formats are written here, at
 // full double precision (shortest round-trip decimals), faces as given.
-// Also the triangulation helpers.
 #include <charconv>
 #include <fstream>
 
-#include "arap/mesh_io.h"
+#include "arap/io/mesh_io.h"
 
 namespace arap::io {
 namespace {
@@ -80,22 +79,6 @@ void write_mesh(const std::string& path, const Points& vertices, const std::vect
   if (ext == "ply") write_ply(out, vertices, polygons);
   out.close();
   if (!out) throw FileError(path + ": write failed (disk full?)");
-}
-
-Triangles triangulate(const std::vector<std::vector<int>>& polygons) {
-  Eigen::Index n = 0;
-  for (const auto& p : polygons) n += p.size() >= 3 ? static_cast<Eigen::Index>(p.size()) - 2 : 0;
-  Triangles t(n, 3);
-  Eigen::Index row = 0;
-  for (const auto& p : polygons)
-    for (std::size_t k = 1; k + 1 < p.size(); ++k) t.row(row++) << p[0], p[k], p[k + 1];
-  return t;
-}
-
-std::vector<std::vector<int>> to_polygons(const Triangles& triangles) {
-  std::vector<std::vector<int>> out(triangles.rows());
-  for (Eigen::Index i = 0; i < triangles.rows(); ++i) out[i] = {triangles(i, 0), triangles(i, 1), triangles(i, 2)};
-  return out;
 }
 
 }  // namespace arap::io

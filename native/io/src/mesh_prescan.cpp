@@ -12,7 +12,8 @@
 #include <string_view>
 #include <vector>
 
-#include "arap/mesh_io.h"
+#include "arap/io/files.h"
+#include "arap/io/numbers.h"
 
 namespace arap::io::detail {
 namespace {
@@ -54,24 +55,14 @@ class Cursor {
   size_t pos_ = 0;
 };
 
-// Non-negative decimal integer of at most 18 digits, or -1.
+// Non-negative decimal integer of at most 18 digits (no sign), or -1.
 long long parse_count(std::string_view t) {
-  if (t.empty() || t.size() > 18) return -1;
-  long long v = 0;
-  for (char c : t) {
-    if (c < '0' || c > '9') return -1;
-    v = v * 10 + (c - '0');
-  }
+  long long v = -1;
+  if (t.empty() || t.size() > 18 || t[0] < '0' || t[0] > '9' || !io::parse_integer(t, v)) return -1;
   return v;
 }
 
-bool parse_finite(std::string_view t, double& out) {
-  if (t.empty() || t.size() > 64) return false;
-  std::string s(t);
-  char* end = nullptr;
-  out = std::strtod(s.c_str(), &end);
-  return end == s.c_str() + s.size() && std::isfinite(out);
-}
+bool parse_finite(std::string_view t, double& out) { return t.size() <= 64 && io::parse_finite(t, out); }
 
 // OpenMesh's OBJ, PLY and STL readers parse coordinates as float: a value
 // beyond the float range fails its stream (the rest of the file is then
@@ -442,7 +433,7 @@ Expected scan_stl(const std::string& path, const std::string& data) {
 
 }  // namespace
 
-Expected prescan(const std::string& path, const std::string& ext, std::uintmax_t /*size*/) {
+Expected prescan(const std::string& path, const std::string& ext) {
   const std::string data = read_all(path);
   if (ext == "off") return scan_off(path, data);
   if (ext == "ply") return scan_ply(path, data);

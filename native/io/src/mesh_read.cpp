@@ -1,15 +1,13 @@
 // read_mesh(): prescan, OpenMesh's reader into a RawImporter, validation.
 #include <OpenMesh/Core/IO/IOManager.hh>
 #include <OpenMesh/Core/System/omstream.hh>
-#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
-#include <filesystem>
 #include <iostream>
 #include <sstream>
 
-#include "arap/mesh_io.h"
+#include "arap/io/mesh_io.h"
 #include "mesh_prescan.h"
 #include "raw_importer.h"
 
@@ -75,32 +73,15 @@ class QuietOpenMesh {
 
 }  // namespace detail
 
-std::string extension_of(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  if (!ext.empty()) ext.erase(0, 1);
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
 namespace {
-// Larger files are refused rather than read into memory twice.
-constexpr std::uintmax_t kMaxFileBytes = std::uintmax_t(1) << 30;
-
 [[noreturn]] void fail(const std::string& path, const std::string& what) { throw FileError(path + ": " + what); }
 }  // namespace
 
 PolygonMesh read_mesh(const std::string& path) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
-  if (ec || !fs::exists(st)) fail(path, "no such file");
-  if (!fs::is_regular_file(st)) fail(path, "not a regular file");
-  const std::uintmax_t size = fs::file_size(path, ec);
-  if (ec) fail(path, "cannot read the file size");
+  const std::uintmax_t size = require_regular_file(path, "mesh file");
   if (size == 0) fail(path, "empty file");
-  if (size > kMaxFileBytes) fail(path, "file larger than 1 GiB");
   const std::string ext = extension_of(path);
-  detail::Expected expected = detail::prescan(path, ext, size);
+  detail::Expected expected = detail::prescan(path, ext);
 
   // Every vertex and face takes at least one byte of the file.
   detail::RawImporter importer(static_cast<std::size_t>(size) + 16);

@@ -1,21 +1,17 @@
-// Reading and writing polygon meshes (OFF, OBJ, PLY, STL in; OFF, OBJ, PLY
-// out) through OpenMesh's IO modules, without building a halfedge mesh: every
-// face of the file is kept, non-manifold ones included.
+// Reading polygon meshes (OFF, OBJ, PLY, STL) and writing them (OFF, OBJ,
+// PLY). OFF is parsed here in full; OBJ, PLY and STL go through OpenMesh's
+// readers, without building a halfedge mesh, so every face of the file is
+// kept, non-manifold ones included. Writing uses small writers of our own
+// (mesh_write.cpp says why not OpenMesh's).
 #pragma once
 
-#include <stdexcept>
 #include <string>
 #include <vector>
 
-#include "arap/solver.h"
+#include "arap/io/files.h"
+#include "arap/types.h"
 
 namespace arap::io {
-
-// A file that cannot be read or written; the message names the file and the problem.
-class FileError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 struct PolygonMesh {
   Points vertices;                         // #V by 3, in the file's order
@@ -38,14 +34,5 @@ PolygonMesh read_mesh(const std::string& path);
 // off, obj or ply; ASCII, shortest decimals that round-trip every double).
 // Throws FileError on failure.
 void write_mesh(const std::string& path, const Points& vertices, const std::vector<std::vector<int>>& polygons);
-
-// Fan triangulation (v0, vk, vk+1) of every polygon, in order; #F' by 3.
-Triangles triangulate(const std::vector<std::vector<int>>& polygons);
-
-// The triangles of `triangles` as 3-vertex polygons.
-std::vector<std::vector<int>> to_polygons(const Triangles& triangles);
-
-// Lower-case extension of `path` without the dot ("" when none).
-std::string extension_of(const std::string& path);
 
 }  // namespace arap::io

@@ -14,7 +14,6 @@
 // the full double range), so OpenMesh never reads OFF.
 #pragma once
 
-#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -33,7 +32,7 @@ struct Expected {
   std::vector<std::vector<int>> polygons;
 };
 
-// Dispatches on `ext` ("off", "obj", "ply", "stl"); `size` is the file size in bytes.
-Expected prescan(const std::string& path, const std::string& ext, std::uintmax_t size);
+// Dispatches on `ext` ("off", "obj", "ply", "stl").
+Expected prescan(const std::string& path, const std::string& ext);
 
 }  // namespace arap::io::detail

@@ -36,6 +36,20 @@ Triangles to_matrix(const std::vector<std::array<int, 3>>& tris) {
   return t;
 }
 
+// The surface of a cube [0, 2]^3 of about `target_vertices` lattice points
+// with each point moved to the unit direction it stands for: warped by tan
+// so that the cells come out of similar size on the sphere.
+TriMesh unit_sphere_lattice(int target_vertices) {
+  const int n = std::max(1, static_cast<int>(std::lround(std::sqrt((target_vertices - 2) / 6.0))));
+  TriMesh m = make_bar(n, n, n, 2.0, 2.0, 2.0);
+  for (Eigen::Index i = 0; i < m.vertices.rows(); ++i) {
+    Eigen::Vector3d p;
+    for (int k = 0; k < 3; ++k) p[k] = std::tan((m.vertices(i, k) - 1.0) * kPi / 4);
+    m.vertices.row(i) = p.normalized().transpose();
+  }
+  return m;
+}
+
 }  // namespace
 
 TriMesh make_bar(int nx, int ny, int nz, double sx, double sy, double sz) {
@@ -124,16 +138,54 @@ TriMesh make_cylinder(int segments, int rings, double radius, double height) {
 TriMesh make_sphere(int target_vertices, double radius, double bumpiness) {
   require(target_vertices >= 8, "sphere: at least 8 vertices");
   require(radius > 0 && bumpiness > -1 && bumpiness < 1, "sphere: radius > 0 and |bumpiness| < 1");
-  const int n = std::max(1, static_cast<int>(std::lround(std::sqrt((target_vertices - 2) / 6.0))));
-  TriMesh m = make_bar(n, n, n, 2.0, 2.0, 2.0);
+  TriMesh m = unit_sphere_lattice(target_vertices);
   for (Eigen::Index i = 0; i < m.vertices.rows(); ++i) {
-    // Lattice in [-1, 1]^3, warped by tan so that the cells come out of similar size on the sphere.
-    Eigen::Vector3d p;
-    for (int k = 0; k < 3; ++k) p[k] = std::tan((m.vertices(i, k) - 1.0) * kPi / 4);
-    const Eigen::Vector3d d = p.normalized();
+    const Eigen::Vector3d d = m.vertices.row(i);
     const double bump = std::sin(3 * d.x() + 1) * std::sin(2 * d.y() + 2) * std::cos(2.5 * d.z());
-    m.vertices.row(i) = (radius * (1 + bumpiness * bump)) * d.transpose();
+    m.vertices.row(i) *= radius * (1 + bumpiness * bump);
   }
+  return m;
+}
+
+TriMesh make_ellipsoid(int target_vertices, const Eigen::Vector3d& semi_axes) {
+  require(target_vertices >= 8, "ellipsoid: at least 8 vertices");
+  require(semi_axes.minCoeff() > 0 && semi_axes.allFinite(), "ellipsoid: semi-axes must be positive");
+  TriMesh m = unit_sphere_lattice(target_vertices);
+  m.vertices = m.vertices * semi_axes.asDiagonal();
+  // make_bar() adds each quad as two triangles in a row, (a, b, c) + (a, c, d) or (a, b, d) + (b, c, d).
+  for (Eigen::Index q = 0; q + 1 < m.triangles.rows(); q += 2) {
+    const auto t0 = m.triangles.row(q), t1 = m.triangles.row(q + 1);
+    const bool diagonal_ac = t0(0) == t1(0);
+    const int a = t0(0), b = t0(1), c = diagonal_ac ? t0(2) : t1(1), d = t1(2);
+    const auto& V = m.vertices;
+    if ((V.row(b) - V.row(d)).squaredNorm() < (V.row(a) - V.row(c)).squaredNorm()) {
+      m.triangles.row(q) << a, b, d;
+      m.triangles.row(q + 1) << b, c, d;
+    } else {
+      m.triangles.row(q) << a, b, c;
+      m.triangles.row(q + 1) << a, c, d;
+    }
+  }
+  return m;
+}
+
+TriMesh make_torus(int around, int segments, double major_radius, double minor_radius) {
+  require(around >= 3 && segments >= 3, "torus: at least 3 rings of 3 vertices");
+  require(major_radius > minor_radius && minor_radius > 0, "torus: radii must satisfy major > minor > 0");
+  TriMesh m;
+  m.vertices.resize(around * segments, 3);
+  auto vid = [&](int r, int s) { return (r % around) * segments + (s % segments); };
+  for (int r = 0; r < around; ++r)
+    for (int s = 0; s < segments; ++s) {
+      const double u = 2 * kPi * r / around, v = 2 * kPi * s / segments;
+      const double w = major_radius + minor_radius * std::cos(v);
+      m.vertices.row(vid(r, s)) << w * std::cos(u), w * std::sin(u), minor_radius * std::sin(v);
+    }
+  std::vector<std::array<int, 3>> tris;
+  for (int r = 0; r < around; ++r)
+    for (int s = 0; s < segments; ++s)
+      add_quad(tris, vid(r, s), vid(r + 1, s), vid(r + 1, s + 1), vid(r, s + 1), (r + s) % 2 == 1);
+  m.triangles = to_matrix(tris);
   return m;
 }
 
@@ -151,6 +203,25 @@ HeightConstraints pick_by_height(const Points& vertices, int axis, double fixed_
       c.handle.push_back(static_cast<int>(i));
   }
   return c;
+}
+
+Bend bend(const Points& vertices, double shift) {
+  require(vertices.rows() > 0 && vertices.allFinite(), "bend: no vertices, or non-finite ones");
+  const Eigen::RowVector3d extent = vertices.colwise().maxCoeff() - vertices.colwise().minCoeff();
+  int up = 0;
+  extent.maxCoeff(&up);
+  const HeightConstraints picked = pick_by_height(vertices, up);
+  Bend b;
+  b.constrained = picked.fixed;
+  b.fixed_count = static_cast<int>(picked.fixed.size());
+  b.constrained.insert(b.constrained.end(), picked.handle.begin(), picked.handle.end());
+  b.targets.resize(static_cast<Eigen::Index>(b.constrained.size()), 3);
+  for (std::size_t k = 0; k < b.constrained.size(); ++k) {
+    const Eigen::Index row = static_cast<Eigen::Index>(k);
+    b.targets.row(row) = vertices.row(b.constrained[k]);
+    if (static_cast<int>(k) >= b.fixed_count) b.targets(row, (up + 1) % 3) += shift * extent[up];
+  }
+  return b;
 }
 
 }  // namespace arap::procedural

@@ -14,7 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "arap/solver.h"
+#include "arap/constraints.h"
+#include "arap/types.h"
 
 namespace arap::io {
 
@@ -39,22 +40,15 @@ Scenario load_scenario(const std::string& json_path);
 // Throws FileError on an unreadable file or a token that is not a non-negative integer.
 std::vector<int> read_index_file(const std::string& path);
 
-struct Constraints {
-  std::vector<int> indices;  // for Solver::bind(), no duplicates
-  Points targets;            // for Solver::solve(), one row per index
-  int fixed_count = 0;       // the first fixed_count indices are the fixed vertices
-  std::vector<std::string> warnings;
+struct Constraints : ConstraintSet {
+  Points targets;  // for Solver::solve(), one row per constrained vertex
 };
 
-// Fixed vertices first (held at rest), then each handle's vertices in order.
-// Rules:
-//  - an index outside [0, #V) throws arap::Error(IndexOutOfRange);
-//  - repeats inside one list are ignored;
-//  - a vertex that is both fixed and in a handle stays FIXED (fixed wins),
-//    with one warning per handle naming how many vertices it lost;
-//  - a vertex in two handles throws arap::Error(DuplicateConstraint);
-//  - a non-finite target throws arap::Error(NonFinite);
-//  - no constraint at all throws arap::Error(NoConstraints).
+// The constraint set of arap/constraints.h (its rules: fixed wins, the first
+// handle wins, warnings name the other group) with the fixed list named "the
+// fixed list" and handle k "handle k" (0-based), and each handle's targets
+// matrix * rest + translate. Throws arap::Error as make_constraint_set() and
+// constraint_targets() do.
 Constraints build_constraints(const Points& rest, const std::vector<int>& fixed, const std::vector<Handle>& handles);
 
 }  // namespace arap::io

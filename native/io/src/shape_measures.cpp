@@ -1,4 +1,4 @@
-#include "arap/shape_measures.h"
+#include "arap/io/shape_measures.h"
 
 #include <algorithm>
 #include <cmath>

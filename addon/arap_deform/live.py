@@ -1,0 +1,209 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""A Live session: bind once, then follow the handle Empties one budgeted,
+warm-started solve at a time (plain class, testable in --background; the
+modal operator in operators.py is a thin shell around it)."""
+
+import time
+
+import bpy
+import numpy as np
+
+from . import constraints, meshio, sessions
+from .errors import SessionError, SetupError
+from .problem import Problem, bind_warnings, configured_solver, sync_matrices
+
+
+class FrameStats:
+    def __init__(self, read_ms, solve_ms, write_ms, energy, iterations):
+        self.read_ms = read_ms      # empties -> targets
+        self.solve_ms = solve_ms    # native solve (warm start) incl. copy into the float32 buffer
+        self.write_ms = write_ms    # foreach_set + mesh.update()
+        self.energy = energy
+        self.iterations = iterations
+
+    @property
+    def io_ms(self):
+        return self.read_ms + self.write_ms
+
+    @property
+    def total_ms(self):
+        return self.read_ms + self.solve_ms + self.write_ms
+
+
+# How often a Live session compares the faces in full (see meshio.Topology).
+TOPOLOGY_CHECK_S = 1.0
+# How many frame budgets a Live update may spend while the handles stand still and the pose settles
+# (3 x 16 ms: the viewport still redraws at about 20 frames a second).
+SETTLE_BUDGET_FACTOR = 3.0
+
+
+class LiveSession:
+    """Bind once, then step(): read empties, solve warm-started, write.
+
+    Each step spends at most the frame budget (live_frame_ms) on iterations, so
+    the viewport stays interactive while a handle moves. When nothing moved,
+    step() goes on from where the last one stopped (the quasi-Newton history is
+    kept; up to SETTLE_BUDGET_FACTOR frame budgets a step) until the pose has
+    settled (the tolerance); then, until something moves again,
+    step(force=False) does nothing and returns None: Live sleeps.
+    The modal operator is a thin shell around this; scripts and tests drive
+    it directly. cancel() restores the snapshot taken at start bit for bit.
+    """
+
+    def __init__(self, obj, scene=None, iterations=None, write=True):
+        constraints.check_object(obj)
+        if sessions.session_for(obj) is not None:
+            # A second session would take the first one's pose as its rest shape.
+            raise SetupError("'%s' is already being posed by a Live session: apply or cancel it first" % obj.name)
+        self.obj = obj
+        self.scene = scene
+        sync_matrices()
+        self.problem = Problem(obj, scene)
+        self.n_vertices = len(obj.data.vertices)
+        self.topology = meshio.Topology(obj.data)
+        self._next_topology_check = time.monotonic() + TOPOLOGY_CHECK_S
+        self.snapshot = meshio.Snapshot(obj)
+        # Cancel means the state before Live: the Empties too.
+        self.empties = meshio.TransformSnapshot(self._empties())
+        self.names = (obj.name, [h.empty.name for h in self.problem.setup.handles])
+        self.collapsed = []     # handles whose Empty is scaled to almost nothing (the operator warns)
+        s = obj.arap
+        self.frame_ms = s.live_frame_ms
+        self.solver = configured_solver(self.problem, s, iterations=iterations or s.live_iterations, warm=True,
+                                        time_budget_ms=self.frame_ms)
+        self.bind_ms = self.solver.bind_ms
+        self.buffer = np.empty(len(self.problem.rest32), np.float32)
+        self.write_enabled = write
+        self.output = meshio.Output(obj, self.problem.output)
+        self.warnings = list(self.problem.setup.warnings) + bind_warnings(self.solver.mesh_report(), self.problem, s)
+        self.last = None
+        self.active = True
+        self.converged = False
+        self._pose = None
+        if write:
+            self.output.ensure()
+        sessions.add(self)
+
+    def check(self, full=False):
+        """Raise SessionError when the object can no longer be posed. The
+        faces are compared in full at most every TOPOLOGY_CHECK_S seconds (or
+        with `full`); element counts every time."""
+        try:
+            obj = self.obj
+            n = len(obj.data.vertices)
+            mode = obj.mode
+        except ReferenceError:
+            raise SessionError("The posed object was deleted", 'OBJECT') from None
+        if n != self.n_vertices:
+            raise SessionError("The mesh's vertex count changed (%d -> %d): Live stopped"
+                               % (self.n_vertices, n), 'TOPOLOGY')
+        now = time.monotonic()
+        full = full or now >= self._next_topology_check
+        if not (self.topology.unchanged(obj.data) if full else self.topology.counts_match(obj.data)):
+            raise SessionError("The mesh's faces changed (same vertex count, new connectivity): Live stopped",
+                               'TOPOLOGY')
+        if full:
+            self._next_topology_check = now + TOPOLOGY_CHECK_S
+        if mode != 'OBJECT':
+            raise SessionError("'%s' left Object Mode: Live stopped" % obj.name, 'MODE')
+
+    @property
+    def settled(self):
+        """The last update's solve converged: until something moves, step(force=False) does nothing."""
+        return self.converged
+
+    def step(self, force=True):
+        """One update; with force=False returns None when the empties and the
+        object did not move and the last solve had converged (settled)."""
+        self.check()
+        t0 = time.perf_counter()
+        sync_matrices()  # scripts move empties without a depsgraph update; cheap when nothing changed
+        try:
+            mats = self.problem.empty_matrices(self.scene)
+        except SetupError as exc:
+            raise SessionError(str(exc), 'EMPTY') from None
+        obj_matrix = constraints.matrix_to_numpy(self.obj.matrix_world)
+        pose = np.concatenate([obj_matrix.ravel()] + [m.ravel() for m in mats])
+        still = self._pose is not None and np.array_equal(pose, self._pose)
+        if not force and self.converged and still:
+            return None
+        self._pose = pose
+        self.collapsed = constraints.collapsed_handles(self.problem.setup, mats)
+        # While a handle moves, keep to the frame budget; once it stops, nobody waits for a
+        # new frame of the handle, so the settling updates may take a few times longer.
+        self.solver.time_budget_ms = self.frame_ms * (SETTLE_BUDGET_FACTOR if still else 1.0)
+        transforms = constraints.handle_transforms(self.problem.setup, obj_matrix, mats, self.obj.name)
+        targets = constraints.fill_targets(self.problem.setup, self.problem.rest_constrained, transforms,
+                                           self.problem.targets)
+        t1 = time.perf_counter()
+        stats = self.solver.solve(targets, out=self.buffer)
+        t2 = time.perf_counter()
+        if self.write_enabled:
+            self.output.write(self.buffer)
+        t3 = time.perf_counter()
+        energy = stats.energy[-1] if stats.energy else stats.initial_energy
+        self.converged = stats.converged
+        self.last = FrameStats((t1 - t0) * 1e3, (t2 - t1) * 1e3, (t3 - t2) * 1e3, energy, stats.iterations)
+        return self.last
+
+    def positions(self):
+        """The current solution, flat float32 (3n), object-local."""
+        return self.buffer
+
+    def _empties(self):
+        return [h.empty for h in self.problem.setup.handles]
+
+    def references_lost(self):
+        """True when Blender replaced the objects this session holds (an undo
+        reloads them): the session must find them again (reattach)."""
+        try:
+            self.obj.name
+            for empty in self._empties():
+                empty.name
+        except ReferenceError:
+            return True
+        return False
+
+    def reattach(self, objects, scene=None):
+        """After an undo: find the posed object and the handle Empties again by
+        name in `objects` (bpy.data.objects; `scene`: the current scene) and go
+        on posing the restored handles. Raises SessionError when they are gone
+        or the mesh changed."""
+        obj_name, empty_names = self.names
+        if self.scene is not None:
+            self.scene = scene
+        obj = objects.get(obj_name)
+        empties = [objects.get(name) for name in empty_names]
+        if obj is None or obj.type != 'MESH' or any(e is None for e in empties):
+            raise SessionError("Undo removed the posed object or a handle Empty: Live stopped", 'OBJECT')
+        self.obj = obj
+        self.snapshot.obj = obj
+        self.output.obj = obj
+        for handle, empty in zip(self.problem.setup.handles, empties):
+            handle.empty = empty
+        self._pose = None    # solve for the restored handles
+        self.converged = False
+        self.check(full=True)
+
+    def cancel(self):
+        """Restore the mesh and the handle Empties exactly as they were when the session started."""
+        if self.active:
+            self.active = False
+            sessions.discard(self)
+            self.snapshot.restore()
+            self.empties.restore(bpy.data.objects)
+            sync_matrices()
+
+    def finish(self):
+        """Keep the current result. Raises SessionError (and stops without
+        keeping anything more) when the faces changed since the last check."""
+        if self.active:
+            try:
+                self.check(full=True)
+            except SessionError:
+                sessions.stop_session(self)
+                raise
+            self.active = False
+            sessions.discard(self)
+            if self.problem.output == 'MESH' and not self.snapshot.had_rest:
+                meshio.store_rest(self.obj.data, self.problem.rest32)

@@ -1,0 +1,177 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""From an object's ARAP settings to a configured solver: what is read from
+Blender for one bind (Problem), the one mapping of the settings to the
+solver's options (solver_options, used by Deform, Live, the bake and Auto
+mode), and the warnings a solve reports.
+"""
+
+import bpy
+import numpy as np
+
+from . import constraints, meshio
+from .errors import SetupError
+from .native_loader import native
+
+# Blender enum items -> the native module's option values (properties.py defines the items).
+WEIGHT_NAMES = {'COTAN': "cotan", 'COTAN_CLAMPED': "cotan-clamped", 'UNIFORM': "uniform"}
+INIT_NAMES = {'LAPLACIAN': "laplacian", 'DIFFERENTIAL': "differential", 'NAIVE': "naive"}
+METHOD_NAMES = {'QUASI_NEWTON': "quasi-newton", 'LOCAL_GLOBAL': "local-global", 'ANDERSON': "anderson"}
+VOLUME_NAMES = {'NONE': "none", 'GLOBAL': "global", 'INFILL': "infill"}
+
+
+def volume_options(settings):
+    """The bind options of the object's Volume setting (native names)."""
+    return {"volume": VOLUME_NAMES[settings.volume], "infill_resolution": settings.infill_resolution}
+
+
+def solver_method(settings):
+    """The native method for the object's settings: its Method, except that Anderson's extrapolated points
+    are not checked against the volume terms, so with Volume on it falls back to Quasi-Newton
+    (method_warning() says so)."""
+    if settings.volume != 'NONE' and settings.method == 'ANDERSON':
+        return METHOD_NAMES['QUASI_NEWTON']
+    return METHOD_NAMES[settings.method]
+
+
+def sync_matrices():
+    """Bring matrix_world up to date after scripts changed location/rotation
+    (Blender updates it only when the depsgraph is evaluated)."""
+    view_layer = getattr(bpy.context, "view_layer", None)
+    if view_layer is not None:
+        view_layer.update()
+
+
+def topology_counts(mesh):
+    """Vertex, edge, loop and face counts: a cheap check that the topology the
+    solver was bound to is still there."""
+    return (len(mesh.vertices), len(mesh.edges), len(mesh.loops), len(mesh.polygons))
+
+
+class Problem:
+    """Everything read from Blender for one bind: rest, triangles, constraints.
+    `rest32`: another flat float32 rest shape than the one Deform uses (the bake's)."""
+
+    def __init__(self, obj, scene, rest32=None):
+        self.setup = constraints.gather(obj, scene)
+        s = obj.arap
+        self.output = meshio.resolve_output(obj, s.output)
+        self.rest32 = meshio.rest_coords(obj, self.output) if rest32 is None else rest32
+        self.rest64 = self.rest32.astype(np.float64).reshape(-1, 3)
+        self.tris = meshio.triangles(obj.data)
+        if len(self.tris) == 0:
+            raise SetupError("'%s' has no faces: ARAP needs a surface" % obj.name)
+        self.rest_constrained = self.rest64[self.setup.constrained]
+        self.targets = np.empty_like(self.rest_constrained)
+        self.weights = WEIGHT_NAMES[s.weights]
+        self.stiffness = constraints.stiffness_of(obj)
+        self.volume = volume_options(s)
+
+    def _empties(self, scene):
+        for h in self.setup.handles:
+            if not constraints.empty_is_alive(h.empty, scene):
+                raise SetupError("The Empty of handle '%s' was deleted" % h.group)
+            yield h.empty
+
+    def empty_matrices(self, scene):
+        """Each handle Empty's world matrix (float64 4x4), as the viewport last updated it."""
+        return [constraints.matrix_to_numpy(e.matrix_world) for e in self._empties(scene)]
+
+    def evaluated_matrices(self, obj, depsgraph, scene=None):
+        """(the object's, [each handle Empty's]) evaluated world matrices: keyframes,
+        drivers, constraints and parents of the frame `depsgraph` shows count."""
+        mats = [constraints.matrix_to_numpy(e.evaluated_get(depsgraph).matrix_world) for e in self._empties(scene)]
+        return constraints.matrix_to_numpy(obj.evaluated_get(depsgraph).matrix_world), mats
+
+    def compute_targets(self, obj, scene):
+        transforms = constraints.handle_transforms(
+            self.setup, constraints.matrix_to_numpy(obj.matrix_world), self.empty_matrices(scene), obj.name)
+        return constraints.fill_targets(self.setup, self.rest_constrained, transforms, self.targets)
+
+    def bind(self):
+        """A new native solver bound to this problem (default options but those fixed at bind: the weights
+        and the volume terms)."""
+        solver = native().Solver()
+        solver.bind(self.rest64, self.tris, self.setup.constrained, weights=self.weights, stiffness=self.stiffness,
+                    **self.volume)
+        return solver
+
+
+def solver_options(settings, iterations=None, tolerance=None, init=None, anderson=None, warm=False,
+                   time_budget_ms=0.0):
+    """The solver's options (native OPTIONS names) from an object's settings
+    (obj.arap); a given argument replaces the setting. `warm`: each solve()
+    starts from the last solution, the first from the start shape `init`."""
+    start = INIT_NAMES[init or settings.init]
+    options = {
+        "max_iterations": iterations or settings.iterations,
+        "tolerance": settings.tolerance if tolerance is None else tolerance,
+        "method": solver_method(settings),
+        "anderson_window": settings.acceleration if anderson is None else anderson,
+        "threads": settings.threads,
+        "time_budget_ms": time_budget_ms,
+    }
+    if warm:
+        options.update(init="warm", cold_start=start)
+    else:
+        options["init"] = start
+    return options
+
+
+def configured_solver(problem, settings, **overrides):
+    """A solver bound to `problem` and configured from `settings` (obj.arap);
+    `overrides`: the keyword arguments of solver_options()."""
+    solver = problem.bind()
+    solver.configure(**solver_options(settings, **overrides))
+    return solver
+
+
+def unconstrained_warning(report):
+    n = report["unconstrained_components"]
+    if n == 0:
+        return None
+    return ("%d vertices in %d part(s) have no fixed or handle vertex: they keep their rest shape"
+            % (report["unconstrained_vertices"], n))
+
+
+def volume_warning(report, volume):
+    """Volume Global keeps closed parts only: say which were left alone."""
+    if volume.get("volume") != "global":
+        return None
+    n = report["volume_open_components"]
+    if n == 0:
+        return None
+    if report["volume_kept_components"] == 0:
+        return ("Volume Global keeps nothing here: the mesh has no closed part (%d open); try Volume Infill" % n)
+    return ("Volume Global keeps the volume of %d closed part(s); %d open part(s) are left as they are"
+            % (report["volume_kept_components"], n))
+
+
+def method_warning(settings):
+    if settings.volume != 'NONE' and settings.method == 'ANDERSON':
+        return "Volume %s needs Quasi-Newton or Local/Global: solved with Quasi-Newton" % settings.volume.title()
+    return None
+
+
+def bind_warnings(report, problem, settings):
+    """What a bind has to tell the user: parts without constraints, open parts Volume Global leaves alone,
+    a method replaced for the volume terms."""
+    found = (unconstrained_warning(report), volume_warning(report, problem.volume), method_warning(settings))
+    return [w for w in found if w]
+
+
+def unconverged_warning(stats, max_iterations, tolerance):
+    if stats.converged or tolerance <= 0:
+        return None
+    return ("The pose had not settled after %d iterations (tolerance %g): raise Iterations in the Solver "
+            "panel, or run Deform again to go on" % (max_iterations, tolerance))
+
+
+def collapsed_handles_warning(problem, scene):
+    """A warning naming handles whose Empty is scaled to (almost) nothing since
+    its bind pose: their vertices collapse to a point."""
+    names = constraints.collapsed_handles(problem.setup, problem.empty_matrices(scene))
+    if not names:
+        return None
+    return ("The Empty of handle%s %s is scaled to almost nothing: %s vertices collapse to a point"
+            % ("s" if len(names) > 1 else "", ", ".join("'%s'" % n for n in names),
+               "their" if len(names) > 1 else "its"))

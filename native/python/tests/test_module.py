@@ -1,0 +1,108 @@
+# The native module _arap_native in a plain Python (no Blender): the constraint
+# rule, the options' one definition, and a solve through numpy buffers.
+# Run by ctest (python.module) with PYTHONPATH set to the staged add-on folder.
+import unittest
+
+import numpy as np
+
+import _arap_native as arap
+
+
+def strip(columns=12, rows=3):
+    """A flat grid of (columns x rows) vertices, two triangles per cell, in the xz plane."""
+    x, z = np.meshgrid(np.arange(columns, dtype=np.float64), np.arange(rows, dtype=np.float64))
+    rest = np.column_stack([x.ravel(), np.zeros(x.size), z.ravel()])
+    tris = []
+    for r in range(rows - 1):
+        for c in range(columns - 1):
+            v = r * columns + c
+            tris += [(v, v + 1, v + columns + 1), (v, v + columns + 1, v + columns)]
+    return rest, np.array(tris, np.int32)
+
+
+class ConstraintRule(unittest.TestCase):
+    def test_fixed_wins_then_the_first_handle(self):
+        s = arap.constraint_set(10, np.array([4, 2, 4]), "the fixed group 'F'",
+                                [("handle 'A'", np.array([2, 5, 6])), ("handle 'B'", np.array([6, 7, 5]))])
+        self.assertEqual(s.constrained.tolist(), [4, 2, 5, 6, 7])
+        self.assertEqual(s.constrained.dtype, np.int64)
+        self.assertEqual(s.fixed_count, 2)
+        self.assertEqual(s.handles, [(0, 2, 4), (1, 4, 5)])
+        self.assertEqual(s.warnings, [
+            "Handle 'A': 1 of its vertices are also in the fixed group 'F' and stay fixed",
+            "Handle 'B': 2 of its vertices are also in handle 'A' and follow that one"])
+
+    def test_a_handle_with_nothing_of_its_own_is_ignored(self):
+        s = arap.constraint_set(4, None, "the fixed group", [("handle 'A'", [1, 2]), ("handle 'B'", [2, 1])])
+        self.assertEqual(s.handles, [(0, 0, 2)])
+        self.assertIn("Handle 'B' has no vertices of its own: ignored", s.warnings)
+
+    def test_bad_indices_and_nothing_held_are_typed_errors(self):
+        with self.assertRaises(arap.ArapError) as cm:
+            arap.constraint_set(3, None, "the fixed group", [("handle 'Arm'", [5])])
+        self.assertEqual(cm.exception.code, "index out of range")
+        self.assertIn("Handle 'Arm' refers to vertex 5", str(cm.exception))
+        with self.assertRaises(arap.ArapError) as cm:
+            arap.constraint_set(3, [], "the fixed group", [])
+        self.assertEqual(cm.exception.code, "no constraints")
+        with self.assertRaises(TypeError):
+            arap.constraint_set(3, None, "the fixed group", [[0, 1]])
+
+
+class Options(unittest.TestCase):
+    def test_a_new_solver_has_the_published_defaults(self):
+        solver = arap.Solver()
+        for name, spec in arap.OPTIONS.items():
+            self.assertEqual(getattr(solver, name), spec["default"], name)
+
+    def test_limits_are_checked_and_nothing_is_kept_on_error(self):
+        solver = arap.Solver()
+        top = arap.OPTIONS["anderson_window"]["max"]
+        solver.anderson_window = top
+        with self.assertRaises(arap.ArapError):
+            solver.anderson_window = top + 1
+        with self.assertRaises(arap.ArapError):
+            solver.configure(tolerance=0.5, threads=arap.OPTIONS["threads"]["max"] + 1)
+        self.assertEqual(solver.tolerance, arap.OPTIONS["tolerance"]["default"])
+        self.assertEqual(solver.anderson_window, top)
+        with self.assertRaises(arap.ArapError):
+            solver.method = "gradient-descent"
+
+
+class Solve(unittest.TestCase):
+    def test_handles_reach_their_targets_and_the_energy_never_rises(self):
+        rest, tris = strip()
+        columns = 12
+        fixed = np.arange(0, rest.shape[0], columns)                # the left edge
+        moved = np.arange(columns - 1, rest.shape[0], columns)      # the right edge
+        chosen = arap.constraint_set(len(rest), fixed, "the fixed group", [("handle 'end'", moved)])
+        solver = arap.Solver()
+        solver.bind(rest, tris, chosen.constrained, weights="cotan-clamped")
+        solver.configure(method="local-global", max_iterations=50, tolerance=0.0)
+        targets = rest[chosen.constrained].copy()
+        targets[chosen.fixed_count:] += (0.0, 0.0, 4.0)
+        out = np.empty(rest.size, np.float32)
+        stats = solver.solve(targets, out=out)
+        self.assertEqual(stats.iterations, 50)
+        energies = [stats.initial_energy] + list(stats.energy)
+        self.assertTrue(all(b <= a * (1 + 1e-12) + 1e-12 for a, b in zip(energies, energies[1:])), energies)
+        result = out.reshape(-1, 3)
+        np.testing.assert_allclose(result[chosen.constrained], targets, atol=1e-5)
+        np.testing.assert_allclose(solver.positions(), result, atol=1e-5)
+        self.assertTrue(np.all(np.isfinite(result)))
+        report = solver.mesh_report()
+        self.assertEqual(report.vertices, len(rest))
+        self.assertEqual(report["unconstrained_components"], 0)
+
+    def test_bad_buffers_are_refused(self):
+        rest, tris = strip()
+        solver = arap.Solver()
+        solver.bind(rest, tris, np.array([0, 11]))
+        with self.assertRaises((arap.ArapError, ValueError)):
+            solver.solve(np.zeros((3, 3)))
+        with self.assertRaises((arap.ArapError, ValueError, TypeError)):
+            solver.solve(rest[[0, 11]], out=np.empty(5, np.float32))
+
+
+if __name__ == "__main__":
+    unittest.main()
