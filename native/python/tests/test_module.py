@@ -68,6 +68,22 @@ class Options(unittest.TestCase):
         with self.assertRaises(arap.ArapError):
             solver.method = "gradient-descent"
 
+    def test_options_fixed_at_bind_change_only_with_a_new_bind(self):
+        rest, tris = strip()
+        solver = arap.Solver()
+        solver.bind(rest, tris, np.array([0, 11]), volume="infill", infill_resolution=4)
+        self.assertEqual((solver.volume, solver.infill_resolution, solver.weights), ("infill", 4, "cotan-clamped"))
+        for name, value in (("weights", "uniform"), ("volume", "none"), ("infill_resolution", 6)):
+            with self.assertRaises(arap.ArapError, msg=name):
+                solver.configure(**{name: value})
+            with self.assertRaises(AttributeError, msg=name):
+                setattr(solver, name, value)
+        self.assertEqual((solver.volume, solver.infill_resolution), ("infill", 4))
+        solver.configure(volume="infill", tolerance=1e-3)   # the same value is no change
+        self.assertEqual(solver.tolerance, 1e-3)
+        with self.assertRaises(arap.ArapError):   # Anderson's extrapolation ignores the volume terms
+            solver.configure(method="anderson")
+
 
 class Solve(unittest.TestCase):
     def test_handles_reach_their_targets_and_the_energy_never_rises(self):
