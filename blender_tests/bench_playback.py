@@ -118,7 +118,8 @@ def ours_headless(api, auto, bake, n, frames, tolerance):
     worst_bake = max(np.abs(baked[f - 1] - played[f]).max() for f in order) / h
     bake.clear_bake(obj)
     return {"vertices": len(obj.data.vertices), "bind_and_first_ms": bind_ms, "solved_ms": solved,
-            "solved_cpu_ms": solved_cpu, "cached_ms": cached, "cached_cpu_ms": cached_cpu, "worst_scrub": worst_scrub, "worst_bake": worst_bake}
+            "solved_cpu_ms": solved_cpu, "cached_ms": cached, "cached_cpu_ms": cached_cpu, "worst_scrub": worst_scrub,
+            "worst_bake": worst_bake}
 
 
 def laplacian_headless(n, frames, iterations):

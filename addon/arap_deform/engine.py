@@ -14,7 +14,8 @@ import time
 import numpy as np
 
 from . import constraints, meshio, solver_cache
-from .problem import Problem, bind_warnings, collapsed_handles_warning, solver_options, sync_matrices, unconverged_warning
+from .problem import (Problem, bind_warnings, collapsed_handles_warning, solver_options, sync_matrices,
+                      unconverged_warning)
 
 
 class DeformResult:
