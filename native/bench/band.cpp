@@ -7,6 +7,7 @@
 #include <limits>
 #include <sstream>
 
+#include "arap/solver.h"
 #include "cpu_clock.h"
 #ifdef ARAP_BENCH_HAVE_CGAL
 #include "cgal_arap.h"
