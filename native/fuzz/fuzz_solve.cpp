@@ -67,6 +67,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   o.anderson_window = in.ConsumeIntegralInRange<int>(0, 5);
   // Every method, from a byte already read: the seed corpus keeps its meaning.
   o.method = static_cast<arap::Method>(o.anderson_window % 3);
+  // Every volume mode too (Anderson takes none: the core refuses the pair), small lattices.
+  if (o.method != arap::Method::Anderson) o.volume = static_cast<arap::Volume>(o.max_iterations % 3);
+  o.infill_resolution = 2 + o.max_iterations % 4;
   std::vector<double> stiffness;
   if (in.ConsumeBool()) {
     stiffness.resize(n);

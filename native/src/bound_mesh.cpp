@@ -11,10 +11,8 @@
 
 namespace arap {
 
-namespace {
-
-void check_input(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
-                 const std::vector<int>& constrained) {
+void check_bind_input(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
+                      const std::vector<int>& constrained) {
   const Eigen::Index n = rest.rows();
   if (n == 0) throw Error(ErrorCode::InvalidInput, "the mesh has no vertices");
   if (n > 100000000) throw Error(ErrorCode::InvalidInput, "more than 100 million vertices are not supported");
@@ -42,6 +40,8 @@ void check_input(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Tr
   }
 }
 
+namespace {
+
 // Component id of every vertex over `edges` (-1: in no edge); returns the count.
 int label_over_edges(int n, const std::vector<WeightedEdge>& edges, std::vector<int>& component) {
   UnionFind sets(n);
@@ -58,7 +58,7 @@ int label_over_edges(int n, const std::vector<WeightedEdge>& edges, std::vector<
 BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
                            const std::vector<int>& constrained, Weights weights,
                            const std::vector<double>& stiffness, const InfillGraph* infill) {
-  check_input(rest, triangles, constrained);
+  check_bind_input(rest, triangles, constrained);
   if (!stiffness.empty() && stiffness.size() != static_cast<size_t>(rest.rows()))
     throw Error(ErrorCode::InvalidInput, "expected one stiffness per vertex (" + std::to_string(rest.rows()) +
                                              "), got " + std::to_string(stiffness.size()));

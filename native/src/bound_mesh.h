@@ -57,6 +57,12 @@ struct BoundMesh {
   MeshReport report;
 };
 
+// Throws Error (no vertices or triangles, non-finite positions, indices out of
+// range, nothing or something twice constrained) before anything is built
+// from the input; build_bound_mesh() checks it too.
+void check_bind_input(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
+                      const std::vector<int>& constrained);
+
 // Checks the input (throws arap::Error) and builds the bound mesh.
 // `constrained` and `triangles` use input indices. `infill` (optional) adds
 // its lattice nodes and edges (Volume::Infill).

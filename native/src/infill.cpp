@@ -22,13 +22,20 @@ constexpr double kCoupling = 2;
 // More lattice cubes than this (over all components) is refused: lower the resolution.
 constexpr long kMaxCells = 2000000;
 
-using CellKey = std::int64_t;
+// A cell's integer coordinates packed in 21 bits each, biased so that the
+// neighbours of border cells (coordinate -1) pack without sign bits: the
+// lattice has at most 256 cells a side, far inside +-2^20.
+using CellKey = std::uint64_t;
+constexpr int kKeyBits = 21;
+constexpr std::int64_t kKeyBias = std::int64_t{1} << (kKeyBits - 1);
+constexpr CellKey kKeyMask = (CellKey{1} << kKeyBits) - 1;
 CellKey key_of(const Eigen::Vector3i& c) {
-  return (static_cast<CellKey>(c.x()) << 42) | (static_cast<CellKey>(c.y()) << 21) | static_cast<CellKey>(c.z());
+  auto packed = [](int v) { return static_cast<CellKey>(v + kKeyBias) & kKeyMask; };
+  return (packed(c.x()) << (2 * kKeyBits)) | (packed(c.y()) << kKeyBits) | packed(c.z());
 }
 Eigen::Vector3i cell_of_key(CellKey key) {
-  return {static_cast<int>(key >> 42), static_cast<int>((key >> 21) & ((1 << 21) - 1)),
-          static_cast<int>(key & ((1 << 21) - 1))};
+  auto unpacked = [](CellKey bits) { return static_cast<int>(static_cast<std::int64_t>(bits & kKeyMask) - kKeyBias); };
+  return {unpacked(key >> (2 * kKeyBits)), unpacked(key >> kKeyBits), unpacked(key)};
 }
 std::uint64_t pair_key(int a, int b) {
   return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | static_cast<std::uint32_t>(std::max(a, b));

@@ -340,6 +340,7 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
                   const std::vector<int>& constrained, const Options& options,
                   const std::vector<double>& stiffness) {
   check_options(options);
+  check_bind_input(rest, triangles, constrained);   // before the infill lattice reads the triangles
   const auto start = Clock::now();
   auto next = std::make_unique<Impl>();
   next->options = options;

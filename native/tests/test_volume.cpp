@@ -5,6 +5,7 @@
 // with arap::measure (independently of the solver), on meshes made here.
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -183,6 +184,34 @@ TEST(VolumeModes, AreCheckedAtBind) {
   }
   EXPECT_THROW(arap::parse_volume("tets"), arap::Error);
   for (Volume v : {Volume::None, Volume::Global, Volume::Infill}) EXPECT_EQ(arap::parse_volume(arap::to_string(v)), v);
+}
+
+// Found by fuzz_solve: the lattice read triangle indices before the bind had checked them.
+TEST(VolumeModes, BadIndicesAndPositionsAreTypedErrorsBeforeTheLatticeIsBuilt) {
+  const Pose p = bent_bar();
+  for (Volume v : {Volume::Global, Volume::Infill}) {
+    Options o;
+    o.volume = v;
+    arap::Triangles bad = p.mesh.triangles;
+    bad(0, 1) = -1;
+    bad(1, 2) = static_cast<int>(p.mesh.vertices.rows());
+    arap::Solver solver;
+    try {
+      solver.bind(p.mesh.vertices, bad, p.constrained, o);
+      ADD_FAILURE() << "bound a mesh with bad indices, volume " << arap::to_string(v);
+    } catch (const arap::Error& e) {
+      EXPECT_EQ(e.code(), arap::ErrorCode::IndexOutOfRange) << e.what();
+    }
+    arap::Points nan = p.mesh.vertices;
+    nan(3, 1) = std::numeric_limits<double>::quiet_NaN();
+    try {
+      solver.bind(nan, p.mesh.triangles, p.constrained, o);
+      ADD_FAILURE() << "bound a NaN vertex, volume " << arap::to_string(v);
+    } catch (const arap::Error& e) {
+      EXPECT_EQ(e.code(), arap::ErrorCode::NonFinite) << e.what();
+    }
+    EXPECT_FALSE(solver.is_bound());
+  }
 }
 
 // ------------------------------------------------------------------ Infill
