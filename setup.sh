@@ -2,7 +2,8 @@
 # One entry point for a fresh Debian machine (12 bookworm, 13 trixie, unstable).
 #   bash setup.sh               install the packages, build, install the Blender add-on, run the demo
 #   bash setup.sh test          install the packages, build, run every test (C++ and Blender)
-#   bash setup.sh test-blender  the same for the Blender suites only (the version matrix in CI)
+#   bash setup.sh test-blender  the same for the Blender suites (and the module in plain python3) only (the
+#                               version matrix in CI)
 #   bash setup.sh bench         install the benchmark's extra packages and run the benchmarks
 #   bash setup.sh sanitize      clang build with ASan + UBSan + libFuzzer (build-sanitize/): the C++ tests and
 #                               the CLI's hostile catalogue, then each fuzz target for FUZZ_SECONDS (default 60)
@@ -55,7 +56,8 @@ case "$mode" in
     ctest --test-dir "$BUILD" --output-on-failure -j1
     ;;
   test-blender)
-    ctest --test-dir "$BUILD" --output-on-failure -j1 -L blender
+    # The Blender suites and the module in that system's plain python3 (labels blender, python).
+    ctest --test-dir "$BUILD" --output-on-failure -j1 -L "blender|python"
     ;;
   demo)
     "$BUILD/arap-make-mesh" bar --vertices 2000 --output "$BUILD/demo_bar.obj" \
