@@ -31,8 +31,8 @@ import numpy as np
 from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from tube_scene import (add_empty, add_group, clear_scene, laplacian_with_hook, make_tube, move,  # noqa: E402
-                        offsets)
+from tube_scene import (add_empty, add_group, clear_scene, laplacian_with_hook, load_addon,  # noqa: E402
+                        make_tube, move, offsets)
 
 
 def parse_args():
@@ -49,17 +49,6 @@ def parse_args():
     return p.parse_args(argv)
 
 
-def load_addon(addon_dir):
-    if addon_dir:
-        sys.path.insert(0, os.path.abspath(addon_dir))
-        import arap_deform
-        arap_deform.register()
-    else:
-        import addon_utils
-        if addon_utils.enable("arap_deform", default_set=True) is None:
-            raise SystemExit("could not enable arap_deform (give --addon-dir or set BLENDER_USER_SCRIPTS)")
-    from arap_deform import api
-    return api
 
 
 def posed_tube(api, name, vertices):
@@ -170,7 +159,8 @@ def summary(ms):
 
 def main():
     args = parse_args()
-    api = load_addon(args.addon_dir)
+    load_addon(args.addon_dir)
+    from arap_deform import api
     rows = []
     for n in [int(x) for x in args.sizes.split(",") if x]:
         clear_scene()

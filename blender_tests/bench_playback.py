@@ -29,7 +29,8 @@ import numpy as np
 from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from tube_scene import add_empty, add_group, clear_scene, laplacian_with_hook, make_tube, offsets  # noqa: E402
+from tube_scene import (add_empty, add_group, clear_scene, laplacian_with_hook, load_addon, make_tube,  # noqa: E402
+                        offsets)
 
 
 def parse_args():
@@ -45,18 +46,6 @@ def parse_args():
     return p.parse_args(argv)
 
 
-def load_addon(addon_dir):
-    if addon_dir:
-        sys.path.insert(0, os.path.abspath(addon_dir))
-        import arap_deform
-        arap_deform.register()
-    else:
-        import addon_utils
-        module = os.environ.get("ARAP_ADDON_MODULE", "arap_deform")
-        if addon_utils.enable(module, default_set=True) is None:
-            raise SystemExit("could not enable %s (give --addon-dir or set BLENDER_USER_SCRIPTS)" % module)
-    from arap_deform import api, auto, bake
-    return api, auto, bake
 
 
 def animated_tube(name, vertices, frames):
@@ -249,7 +238,8 @@ class ViewportRun:
 
 def main():
     args = parse_args()
-    api, auto, bake = load_addon(args.addon_dir)
+    load_addon(args.addon_dir)
+    from arap_deform import api, auto, bake
     if args.viewport:
         run = ViewportRun(args, api)
         bpy.app.handlers.frame_change_post.append(run.frame_changed)

@@ -1,11 +1,27 @@
 # The tube scene of the Blender-side benchmarks (bench_live.py, bench_playback.py):
 # an open tube of quads, its bottom fifth fixed and its top 5 % on an Empty,
-# for ARAP and for Blender's Laplacian Deform + Hook with the same anchors.
+# for ARAP and for Blender's Laplacian Deform + Hook with the same anchors;
+# and how those benchmarks load the add-on.
 import math
+import os
+import sys
 
 import bpy
 import numpy as np
 from mathutils import Matrix, Vector
+
+
+def load_addon(addon_dir):
+    """Register the add-on from `addon_dir` (a staged build/addon), or enable the installed one."""
+    if addon_dir:
+        sys.path.insert(0, os.path.abspath(addon_dir))
+        import arap_deform
+        arap_deform.register()
+    else:
+        import addon_utils
+        module = os.environ.get("ARAP_ADDON_MODULE", "arap_deform")
+        if addon_utils.enable(module, default_set=True) is None:
+            raise SystemExit("could not enable %s (give --addon-dir or set BLENDER_USER_SCRIPTS)" % module)
 
 
 def clear_scene():

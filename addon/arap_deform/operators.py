@@ -55,14 +55,6 @@ def _draw_live_status(self, _context):
 _status_shown = False
 
 
-def live_status_off():
-    """Take the Live status out of the status bar (the add-on is disabled)."""
-    global _status_shown
-    if _status_shown:
-        bpy.types.STATUSBAR_HT_header.remove(_draw_live_status)
-        _status_shown = False
-
-
 def _live_status(on):
     """Show the Live status in the status bar (on), or stop when no session is left."""
     global _status_shown
