@@ -218,6 +218,23 @@ def _end_with_launcher(launcher_pid):
         _on_sigterm(signal.SIGTERM, None)
     except OSError:
         pass
+    _watch_parent()
+
+
+def _watch_parent():
+    """Besides the kernel's signal: a thread that sees the direct parent go (this process is
+    re-parented the moment it dies) and sends SIGTERM to the main thread, where the handler
+    runs (a sleeping or busy main thread is interrupted as by the kernel's signal). Covers
+    what the signal cannot: no prctl, or a parent gone before prctl was called."""
+    import threading
+    parent, main = os.getppid(), threading.main_thread().ident
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        signal.pthread_kill(main, signal.SIGTERM)
+
+    threading.Thread(target=watch, name="arap-watch-launcher", daemon=True).start()
 
 
 def parse_job(argv):
