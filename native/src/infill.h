@@ -27,7 +27,7 @@
 //    (each weighted by its barycentric weight, as first built): the coupling
 //    made most of the spokes of the local step and most of the factor's
 //    fill-in, and one edge, twice as stiff, kept as much volume, crossed
-//    itself less and cost 10-25% less per iteration (README, "Keeping the volume").
+//    itself less and cost less per iteration on most meshes (README, "Keeping the volume").
 // ARAP alone does not resist volume change more than any change of shape
 // (a material of Poisson's ratio 0): the lattice also carries a bulk term,
 // see infill_volume.h (gamma = kInfillBulk).
