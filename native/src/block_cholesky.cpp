@@ -5,6 +5,7 @@
 #include <thread>
 
 #include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
 
 namespace arap {
 
@@ -66,10 +67,11 @@ void split(const Eigen::SparseMatrix<double>& A, std::vector<int> part[3]) {
 
 }  // namespace
 
-bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A) {
+bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel) {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   n_ = A.rows();
+  L_.clear();
   std::vector<int> part[3];
   if (n_ >= kSplitRows) {
     split(A, part);
@@ -85,40 +87,66 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A) {
   half_[0] = static_cast<Eigen::Index>(part[0].size());
   half_[1] = static_cast<Eigen::Index>(part[1].size());
   separator_ = half_[0] + half_[1];
-  Permutation P(n_);  // P.indices()[old] = new
-  for (Eigen::Index i = 0; i < n_; ++i) P.indices()[perm_[i]] = static_cast<int>(i);
+  const std::vector<int> bounds = {0, static_cast<int>(half_[0]), static_cast<int>(separator_), static_cast<int>(n_)};
   Eigen::SparseMatrix<double> permuted;
-  permuted = A.selfadjointView<Eigen::Lower>().twistedBy(P);
+  auto permute = [&] {
+    Permutation P(n_);  // P.indices()[old] = new
+    for (Eigen::Index i = 0; i < n_; ++i) P.indices()[perm_[i]] = static_cast<int>(i);
+    permuted = A.selfadjointView<Eigen::Lower>().twistedBy(P);
+  };
+  permute();
+  // The supernodes need the elimination tree postordered: an equivalent order
+  // (the same fill), kept within each half and the separator.
+  const std::vector<int> order = postorder_within_parts(elimination_tree(permuted), bounds);
+  bool postordered = true;
+  for (Eigen::Index i = 0; i < n_ && postordered; ++i) postordered = order[i] == i;
+  if (!postordered) {
+    const Eigen::VectorXi before = perm_;
+    for (Eigen::Index i = 0; i < n_; ++i) perm_[i] = before[order[i]];
+    permute();
+  }
   const auto ordered = Clock::now();
-  llt_.compute(permuted);
+  auto factored = ordered;
+  bool ok;
+  if (kernel == Kernel::Supernodal) {
+    ok = supernodal_cholesky(permuted, bounds, L_);
+    factored = Clock::now();
+  } else {
+    Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> llt(permuted);
+    factored = Clock::now();  // the copy below is not part of Eigen's factorization
+    ok = llt.info() == Eigen::Success;
+    if (ok) {  // the up-looking factorization stores each column's diagonal first
+      const auto& L = llt.matrixL().nestedExpression();
+      L_.outer.assign(L.outerIndexPtr(), L.outerIndexPtr() + n_ + 1);
+      L_.inner.assign(L.innerIndexPtr(), L.innerIndexPtr() + L.nonZeros());
+      L_.value.assign(L.valuePtr(), L.valuePtr() + L.nonZeros());
+    }
+  }
   ordering_ms_ = std::chrono::duration<double, std::milli>(ordered - start).count();
-  factor_ms_ = std::chrono::duration<double, std::milli>(Clock::now() - ordered).count();
-  if (llt_.info() != Eigen::Success) return false;
-  // The up-looking factorization stores each column's diagonal first.
-  const auto& L = llt_.matrixL().nestedExpression();
+  factor_ms_ = std::chrono::duration<double, std::milli>(factored - ordered).count();
+  if (!ok) return L_.clear(), false;
   inv_diag_.resize(n_);
   for (Eigen::Index j = 0; j < n_; ++j) {
-    const int p = L.outerIndexPtr()[j];
-    if (L.innerIndexPtr()[p] != j || !(L.valuePtr()[p] > 0)) return false;
-    inv_diag_[j] = 1.0 / L.valuePtr()[p];
+    const long p = L_.outer[j];
+    if (L_.inner[p] != j || !(L_.value[p] > 0)) return L_.clear(), false;
+    inv_diag_[j] = 1.0 / L_.value[p];
   }
   return true;
 }
 
-long BlockCholesky::nonzeros() const { return n_ ? static_cast<long>(llt_.matrixL().nestedExpression().nonZeros()) : 0; }
+long BlockCholesky::nonzeros() const { return n_ && !L_.outer.empty() ? L_.outer[n_] : 0; }
 
 void BlockCholesky::forward(double* y, Eigen::Index begin, Eigen::Index end, double* separator) const {
-  const auto& L = llt_.matrixL().nestedExpression();
-  const int* outer = L.outerIndexPtr();
-  const int* inner = L.innerIndexPtr();
-  const double* value = L.valuePtr();
+  const long* outer = L_.outer.data();
+  const int* inner = L_.inner.data();
+  const double* value = L_.value.data();
   // L y = b column by column, each entry applied to all three columns.
   for (Eigen::Index j = begin; j < end; ++j) {
     double* yj = y + 3 * j;
     const double d = inv_diag_[j];
     const double a = yj[0] * d, b = yj[1] * d, c = yj[2] * d;
     yj[0] = a, yj[1] = b, yj[2] = c;
-    for (int p = outer[j] + 1; p < outer[j + 1]; ++p) {
+    for (long p = outer[j] + 1; p < outer[j + 1]; ++p) {
       const Eigen::Index i = inner[p];
       double* yi = i < separator_ || !separator ? y + 3 * i : separator + 3 * (i - separator_);
       const double l = value[p];
@@ -128,14 +156,13 @@ void BlockCholesky::forward(double* y, Eigen::Index begin, Eigen::Index end, dou
 }
 
 void BlockCholesky::backward(double* y, Eigen::Index begin, Eigen::Index end) const {
-  const auto& L = llt_.matrixL().nestedExpression();
-  const int* outer = L.outerIndexPtr();
-  const int* inner = L.innerIndexPtr();
-  const double* value = L.valuePtr();
+  const long* outer = L_.outer.data();
+  const int* inner = L_.inner.data();
+  const double* value = L_.value.data();
   // L^T x = y; column j of L is row j of L^T.
   for (Eigen::Index j = end - 1; j >= begin; --j) {
     double a = y[3 * j], b = y[3 * j + 1], c = y[3 * j + 2];
-    for (int p = outer[j] + 1; p < outer[j + 1]; ++p) {
+    for (long p = outer[j] + 1; p < outer[j + 1]; ++p) {
       const double* yi = y + 3 * inner[p];
       const double l = value[p];
       a -= l * yi[0], b -= l * yi[1], c -= l * yi[2];
