@@ -79,32 +79,23 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel) 
     part[0].resize(n_);
     for (Eigen::Index k = 0; k < n_; ++k) part[0][k] = static_cast<int>(k);
   }
-  perm_.resize(n_);
-  std::vector<int> local(n_, -1);
-  Eigen::Index next = 0;
+  std::vector<int> order, local(n_, -1);
+  order.reserve(n_);
   for (int p = 0; p < 3; ++p)
-    for (int row : amd_order(A, part[p], local)) perm_[next++] = row;
+    for (int row : amd_order(A, part[p], local)) order.push_back(row);
   half_[0] = static_cast<Eigen::Index>(part[0].size());
   half_[1] = static_cast<Eigen::Index>(part[1].size());
   separator_ = half_[0] + half_[1];
   const std::vector<int> bounds = {0, static_cast<int>(half_[0]), static_cast<int>(separator_), static_cast<int>(n_)};
-  Eigen::SparseMatrix<double> permuted;
-  auto permute = [&] {
-    Permutation P(n_);  // P.indices()[old] = new
-    for (Eigen::Index i = 0; i < n_; ++i) P.indices()[perm_[i]] = static_cast<int>(i);
-    permuted = A.selfadjointView<Eigen::Lower>().twistedBy(P);
-  };
-  permute();
   // The supernodes need the elimination tree postordered: an equivalent order
   // (the same fill), kept within each half and the separator.
-  const std::vector<int> order = postorder_within_parts(elimination_tree(permuted), bounds);
-  bool postordered = true;
-  for (Eigen::Index i = 0; i < n_ && postordered; ++i) postordered = order[i] == i;
-  if (!postordered) {
-    const Eigen::VectorXi before = perm_;
-    for (Eigen::Index i = 0; i < n_; ++i) perm_[i] = before[order[i]];
-    permute();
-  }
+  const std::vector<int> post = postorder_within_parts(elimination_tree(A, order), bounds);
+  perm_.resize(n_);
+  for (Eigen::Index i = 0; i < n_; ++i) perm_[i] = order[post[i]];
+  Permutation P(n_);  // P.indices()[old] = new
+  for (Eigen::Index i = 0; i < n_; ++i) P.indices()[perm_[i]] = static_cast<int>(i);
+  Eigen::SparseMatrix<double> permuted;
+  permuted = A.selfadjointView<Eigen::Lower>().twistedBy(P);
   const auto ordered = Clock::now();
   auto factored = ordered;
   bool ok;
@@ -115,60 +106,80 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel) 
     Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> llt(permuted);
     factored = Clock::now();  // the copy below is not part of Eigen's factorization
     ok = llt.info() == Eigen::Success;
-    if (ok) {  // the up-looking factorization stores each column's diagonal first
+    if (ok) {  // one column per supernode; the up-looking factorization stores each column's diagonal first
       const auto& L = llt.matrixL().nestedExpression();
-      L_.outer.assign(L.outerIndexPtr(), L.outerIndexPtr() + n_ + 1);
-      L_.inner.assign(L.innerIndexPtr(), L.innerIndexPtr() + L.nonZeros());
+      L_.first.resize(n_ + 1);
+      for (Eigen::Index j = 0; j <= n_; ++j) L_.first[j] = static_cast<int>(j);
+      L_.row_start.assign(L.outerIndexPtr(), L.outerIndexPtr() + n_ + 1);
+      L_.value_start = L_.row_start;
+      L_.rows.assign(L.innerIndexPtr(), L.innerIndexPtr() + L.nonZeros());
       L_.value.assign(L.valuePtr(), L.valuePtr() + L.nonZeros());
+      for (Eigen::Index j = 0; j < n_ && ok; ++j) ok = L_.rows[L_.row_start[j]] == j && L_.value[L_.row_start[j]] > 0;
     }
   }
   ordering_ms_ = std::chrono::duration<double, std::milli>(ordered - start).count();
   factor_ms_ = std::chrono::duration<double, std::milli>(factored - ordered).count();
   if (!ok) return L_.clear(), false;
+  // Each part's first supernode (they never span two parts).
+  for (int p = 0; p < 4; ++p)
+    part_supernode_[p] = static_cast<int>(std::lower_bound(L_.first.begin(), L_.first.end(), bounds[p]) - L_.first.begin());
   inv_diag_.resize(n_);
-  for (Eigen::Index j = 0; j < n_; ++j) {
-    const long p = L_.outer[j];
-    if (L_.inner[p] != j || !(L_.value[p] > 0)) return L_.clear(), false;
-    inv_diag_[j] = 1.0 / L_.value[p];
+  for (int s = 0; s < L_.supernodes(); ++s) {
+    const long height = L_.row_start[s + 1] - L_.row_start[s];
+    for (int c = 0; c < L_.first[s + 1] - L_.first[s]; ++c)
+      inv_diag_[L_.first[s] + c] = 1.0 / L_.value[L_.value_start[s] + c * height + c];
   }
   return true;
 }
 
-long BlockCholesky::nonzeros() const { return n_ && !L_.outer.empty() ? L_.outer[n_] : 0; }
+long BlockCholesky::nonzeros() const {
+  long entries = 0;
+  for (int s = 0; s < L_.supernodes(); ++s) {
+    const long width = L_.first[s + 1] - L_.first[s], height = L_.row_start[s + 1] - L_.row_start[s];
+    entries += width * height - width * (width - 1) / 2;
+  }
+  return entries;
+}
 
-void BlockCholesky::forward(double* y, Eigen::Index begin, Eigen::Index end, double* separator) const {
-  const long* outer = L_.outer.data();
-  const int* inner = L_.inner.data();
-  const double* value = L_.value.data();
+void BlockCholesky::forward(double* y, int begin, int end, double* separator) const {
   // L y = b column by column, each entry applied to all three columns.
-  for (Eigen::Index j = begin; j < end; ++j) {
-    double* yj = y + 3 * j;
-    const double d = inv_diag_[j];
-    const double a = yj[0] * d, b = yj[1] * d, c = yj[2] * d;
-    yj[0] = a, yj[1] = b, yj[2] = c;
-    for (long p = outer[j] + 1; p < outer[j + 1]; ++p) {
-      const Eigen::Index i = inner[p];
-      double* yi = i < separator_ || !separator ? y + 3 * i : separator + 3 * (i - separator_);
-      const double l = value[p];
-      yi[0] -= l * a, yi[1] -= l * b, yi[2] -= l * c;
+  for (int s = begin; s < end; ++s) {
+    const int* row = L_.rows.data() + L_.row_start[s];
+    const long height = L_.row_start[s + 1] - L_.row_start[s];
+    for (int c = 0; c < L_.first[s + 1] - L_.first[s]; ++c) {
+      const Eigen::Index j = L_.first[s] + c;
+      const double* column = L_.value.data() + L_.value_start[s] + c * height;
+      double* yj = y + 3 * j;
+      const double d = inv_diag_[j];
+      const double a = yj[0] * d, b = yj[1] * d, e = yj[2] * d;
+      yj[0] = a, yj[1] = b, yj[2] = e;
+      for (long r = c + 1; r < height; ++r) {
+        const Eigen::Index i = row[r];
+        double* yi = i < separator_ || !separator ? y + 3 * i : separator + 3 * (i - separator_);
+        const double l = column[r];
+        yi[0] -= l * a, yi[1] -= l * b, yi[2] -= l * e;
+      }
     }
   }
 }
 
-void BlockCholesky::backward(double* y, Eigen::Index begin, Eigen::Index end) const {
-  const long* outer = L_.outer.data();
-  const int* inner = L_.inner.data();
-  const double* value = L_.value.data();
+void BlockCholesky::backward(double* y, int begin, int end) const {
   // L^T x = y; column j of L is row j of L^T.
-  for (Eigen::Index j = end - 1; j >= begin; --j) {
-    double a = y[3 * j], b = y[3 * j + 1], c = y[3 * j + 2];
-    for (long p = outer[j] + 1; p < outer[j + 1]; ++p) {
-      const double* yi = y + 3 * inner[p];
-      const double l = value[p];
-      a -= l * yi[0], b -= l * yi[1], c -= l * yi[2];
+  for (int s = end - 1; s >= begin; --s) {
+    const int* row = L_.rows.data() + L_.row_start[s];
+    const long height = L_.row_start[s + 1] - L_.row_start[s];
+    for (int c = L_.first[s + 1] - L_.first[s] - 1; c >= 0; --c) {
+      const Eigen::Index j = L_.first[s] + c;
+      const double* column = L_.value.data() + L_.value_start[s] + c * height;
+      double a = y[3 * j], b = y[3 * j + 1], e = y[3 * j + 2];
+      for (long r = c + 1; r < height; ++r) {
+        const double* yi = y + 3 * row[r];
+        const double l = column[r];
+        a -= l * yi[0], b -= l * yi[1], e -= l * yi[2];
+      }
+      const double d = inv_diag_[j];
+      y[3 * j] = a * d, y[3 * j + 1] = b * d, y[3 * j + 2] = e * d;
     }
-    const double d = inv_diag_[j];
-    y[3 * j] = a * d, y[3 * j + 1] = b * d, y[3 * j + 2] = c * d;
   }
 }
 
@@ -187,20 +198,20 @@ void BlockCholesky::solve_in_place(double* x, std::vector<double>& work, int thr
   // summed afterwards in a fixed order, whatever ran them.
   {
     std::thread second;
-    if (parallel) second = std::thread([&] { forward(y, half_[0], separator_, partial[1]); });
-    forward(y, 0, half_[0], partial[0]);
+    if (parallel) second = std::thread([&] { forward(y, part_supernode_[1], part_supernode_[2], partial[1]); });
+    forward(y, part_supernode_[0], part_supernode_[1], partial[0]);
     if (parallel) second.join();
-    else forward(y, half_[0], separator_, partial[1]);
+    else forward(y, part_supernode_[1], part_supernode_[2], partial[1]);
   }
   for (Eigen::Index k = 0; k < 3 * separator_rows; ++k) y[3 * separator_ + k] += partial[0][k] + partial[1][k];
-  forward(y, separator_, n_, nullptr);
-  backward(y, separator_, n_);
+  forward(y, part_supernode_[2], part_supernode_[3], nullptr);
+  backward(y, part_supernode_[2], part_supernode_[3]);
   {
     std::thread second;
-    if (parallel) second = std::thread([&] { backward(y, half_[0], separator_); });
-    backward(y, 0, half_[0]);
+    if (parallel) second = std::thread([&] { backward(y, part_supernode_[1], part_supernode_[2]); });
+    backward(y, part_supernode_[0], part_supernode_[1]);
     if (parallel) second.join();
-    else backward(y, half_[0], separator_);
+    else backward(y, part_supernode_[1], part_supernode_[2]);
   }
   for (Eigen::Index i = 0; i < n_; ++i) {
     double* dst = x + 3 * perm_[i];

@@ -49,6 +49,64 @@ __attribute__((target("avx2,fma"))) void tiles_avx2(const double* pack, long row
   }
 }
 
+// Eight rows of B at a time, column after column: row r of the result is
+// b_c = (b_c - sum_{t<c} b_t L(c, t)) / L(c, c), with that group's solved
+// columns still in the first-level cache. Lt: L transposed (row c of L
+// contiguous), leading dimension w.
+__attribute__((target("avx2,fma"))) void solve_avx2(double* B, long ldb, long rows, const double* Lt, long w) {
+  long r = 0;
+  for (; r + kRows <= rows; r += kRows) {
+    long c = 0;
+    for (; c + kColumns <= w; c += kColumns) {  // four columns share each load of a solved column
+      v4 lo[kColumns], hi[kColumns];
+      for (long j = 0; j < kColumns; ++j) {
+        lo[j] = *reinterpret_cast<const v4u*>(B + r + (c + j) * ldb);
+        hi[j] = *reinterpret_cast<const v4u*>(B + r + (c + j) * ldb + 4);
+      }
+      for (long t = 0; t < c; ++t) {
+        const v4 blo = *reinterpret_cast<const v4u*>(B + r + t * ldb);
+        const v4 bhi = *reinterpret_cast<const v4u*>(B + r + t * ldb + 4);
+        for (long j = 0; j < kColumns; ++j) {
+          const double l = Lt[t + (c + j) * w];
+          const v4 s = {l, l, l, l};
+          lo[j] -= blo * s, hi[j] -= bhi * s;
+        }
+      }
+      for (long j = 0; j < kColumns; ++j) {
+        for (long i = 0; i < j; ++i) {
+          const double l = Lt[c + i + (c + j) * w];
+          const v4 s = {l, l, l, l};
+          lo[j] -= lo[i] * s, hi[j] -= hi[i] * s;
+        }
+        const double d = Lt[c + j + (c + j) * w];
+        const v4 s = {d, d, d, d};
+        lo[j] /= s, hi[j] /= s;
+        *reinterpret_cast<v4u*>(B + r + (c + j) * ldb) = lo[j];
+        *reinterpret_cast<v4u*>(B + r + (c + j) * ldb + 4) = hi[j];
+      }
+    }
+    for (; c < w; ++c) {
+      double* bc = B + r + c * ldb;
+      v4 lo = *reinterpret_cast<const v4u*>(bc), hi = *reinterpret_cast<const v4u*>(bc + 4);
+      for (long t = 0; t < c; ++t) {
+        const double* bt = B + r + t * ldb;
+        const double l = Lt[t + c * w];
+        const v4 s = {l, l, l, l};
+        lo -= *reinterpret_cast<const v4u*>(bt) * s, hi -= *reinterpret_cast<const v4u*>(bt + 4) * s;
+      }
+      const double d = Lt[c + c * w];
+      const v4 s = {d, d, d, d};
+      *reinterpret_cast<v4u*>(bc) = lo / s, *reinterpret_cast<v4u*>(bc + 4) = hi / s;
+    }
+  }
+  for (; r < rows; ++r)
+    for (long c = 0; c < w; ++c) {
+      double b = B[r + c * ldb];
+      for (long t = 0; t < c; ++t) b -= B[r + t * ldb] * Lt[t + c * w];
+      B[r + c * ldb] = b / Lt[c + c * w];
+    }
+}
+
 }  // namespace
 
 bool have_avx2_fma() {
@@ -74,6 +132,14 @@ void lower_product_avx2(const double* A, long lda, long m, long k, long w, doubl
         *p = r < m ? A[r + t * lda] : 0.0;
       }
   tiles_avx2(pack.data(), row_groups, column_groups, w, C, row_groups * kRows);
+}
+
+void solve_transposed_avx2(double* B, long ldb, long rows, const double* L, long ldl, long w,
+                           std::vector<double>& pack) {
+  pack.resize(static_cast<std::size_t>(w * w));
+  for (long c = 0; c < w; ++c)
+    for (long t = 0; t <= c; ++t) pack[t + c * w] = L[c + t * ldl];
+  solve_avx2(B, ldb, rows, pack.data(), w);
 }
 
 }  // namespace arap

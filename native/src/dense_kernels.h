@@ -20,4 +20,10 @@ long product_rows(long m);
 long product_columns(long k);
 void lower_product_avx2(const double* A, long lda, long m, long k, long w, double* C, std::vector<double>& pack);
 
+// B = B L^-T in place: B rows by w (leading dimension ldb), L w by w lower
+// triangular (leading dimension ldl). `pack` is resized as needed. Only call
+// when have_avx2_fma().
+void solve_transposed_avx2(double* B, long ldb, long rows, const double* L, long ldl, long w,
+                           std::vector<double>& pack);
+
 }  // namespace arap

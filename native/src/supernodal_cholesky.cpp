@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <chrono>
-#include <cstdio>
 #include <cstdlib>
 
 #include <Eigen/Dense>
@@ -109,14 +107,18 @@ std::vector<int> supernodes(const std::vector<int>& parent, const std::vector<in
 
 }  // namespace
 
-std::vector<int> elimination_tree(const Sparse& A) {
+std::vector<int> elimination_tree(const Sparse& A, const std::vector<int>& order) {
   const int n = static_cast<int>(A.rows());
-  std::vector<int> parent(n, -1), ancestor(n, -1);
+  std::vector<int> parent(n, -1), ancestor(n, -1), position;
+  if (!order.empty()) {
+    position.resize(n);
+    for (int k = 0; k < n; ++k) position[order[k]] = k;
+  }
   // Liu's algorithm: row k's entries left of the diagonal attach, through
   // path-compressed ancestors, the roots of their subtrees to k.
   for (int k = 0; k < n; ++k)
-    for (Sparse::InnerIterator it(A, k); it; ++it)
-      for (int i = static_cast<int>(it.row()); i >= 0 && i < k;) {
+    for (Sparse::InnerIterator it(A, order.empty() ? k : order[k]); it; ++it)
+      for (int i = order.empty() ? static_cast<int>(it.row()) : position[it.row()]; i >= 0 && i < k;) {
         const int next = ancestor[i];
         ancestor[i] = k;
         if (next < 0) parent[i] = k;
@@ -151,13 +153,11 @@ std::vector<int> postorder_within_parts(const std::vector<int>& parent, const st
   return order;
 }
 
-bool supernodal_cholesky(const Sparse& A, const std::vector<int>& bounds, SparseFactor& L) {
+bool supernodal_cholesky(const Sparse& A, const std::vector<int>& bounds, SupernodalFactor& L) {
   L.clear();
-  auto T0 = std::chrono::steady_clock::now();
-  auto ms = [&] { return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - T0).count(); };
   const int n = static_cast<int>(A.rows());
   const std::vector<int> parent = elimination_tree(A);
-  const std::vector<int> first = supernodes(parent, column_counts(A, parent), part_ends(bounds, n));
+  std::vector<int> first = supernodes(parent, column_counts(A, parent), part_ends(bounds, n));
   const int m = static_cast<int>(first.size()) - 1;
   std::vector<int> super_of(n);
   for (int s = 0; s < m; ++s)
@@ -189,7 +189,6 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& bounds, Sparse
     value_start[s + 1] = value_start[s] + (row_start[s + 1] - row_start[s]) * (end - begin);
   }
 
-  double t_sym = ms();
   // Left-looking numeric factorization. Each factored supernode d waits in
   // the list of the next supernode its rows reach (cursor[d]: its first row
   // not yet used); when that supernode comes, d's update is
@@ -246,49 +245,33 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& bounds, Sparse
     Block diagonal(block, width, width, Eigen::OuterStride<>(height));
     Eigen::Ref<Eigen::MatrixXd> diagonal_ref(diagonal);
     Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(diagonal_ref);
-    if (llt.info() != Eigen::Success) return L.clear(), false;
+    if (llt.info() != Eigen::Success) return false;
     if (height > width) {
-      Block below(block + width, height - width, width, Eigen::OuterStride<>(height));
-      diagonal.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(below);
+      if (avx2) {
+        solve_transposed_avx2(block + width, height, height - width, block, height, width, pack);
+      } else {
+        Block below(block + width, height - width, width, Eigen::OuterStride<>(height));
+        diagonal.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(below);
+      }
       cursor[s] = width;
       const int t = super_of[row[width]];
       waiting_next[s] = waiting_head[t], waiting_head[t] = s;
     }
   }
 
-  double t_num = ms();
-  if (std::getenv("ARAP_CHOL_DEBUG")) {
-    double flops = 0, gemm = 0; long cols1 = 0;
-    for (int s = 0; s < m; ++s) { double h = row_start[s + 1] - row_start[s]; int w = first[s + 1] - first[s]; for (int c = 0; c < w; ++c) flops += (h - c) * (h - c); if (w == 1) ++cols1; (void)gemm; }
-    std::fprintf(stderr, "n %d supernodes %d (1-col %ld) values %ld rows %zu flops(dense) %.3g  sym %.1f num %.1f ms\n", n, m, cols1, value_start[m], rows.size(), flops, t_sym, t_num - t_sym);
-  }
-  // Compressed columns without the zeros amalgamation added (an entry outside
-  // L's structure is a sum of products each with an exact zero: exactly zero).
-  L.outer.assign(n + 1, 0);
+  // The diagonal of a positive definite matrix's factor is positive (and finite).
   for (int s = 0; s < m; ++s) {
     const long height = row_start[s + 1] - row_start[s];
     for (int c = 0; c < first[s + 1] - first[s]; ++c) {
-      const double* column = value.data() + value_start[s] + c * height;
-      if (!(column[c] > 0) || !std::isfinite(column[c])) return L.clear(), false;
-      long kept = 1;
-      for (long r = c + 1; r < height; ++r) kept += column[r] != 0;
-      L.outer[first[s] + c + 1] = kept;
+      const double d = value[value_start[s] + c * height + c];
+      if (!(d > 0) || !std::isfinite(d)) return false;
     }
   }
-  for (int j = 0; j < n; ++j) L.outer[j + 1] += L.outer[j];
-  L.inner.resize(L.outer[n]);
-  L.value.resize(L.outer[n]);
-  for (int s = 0; s < m; ++s) {
-    const int* row = rows.data() + row_start[s];
-    const long height = row_start[s + 1] - row_start[s];
-    for (int c = 0; c < first[s + 1] - first[s]; ++c) {
-      const double* column = value.data() + value_start[s] + c * height;
-      long p = L.outer[first[s] + c];
-      L.inner[p] = row[c], L.value[p++] = column[c];
-      for (long r = c + 1; r < height; ++r)
-        if (column[r] != 0) L.inner[p] = row[r], L.value[p++] = column[r];
-    }
-  }
+  L.first = std::move(first);
+  L.row_start = std::move(row_start);
+  L.value_start = std::move(value_start);
+  L.rows = std::move(rows);
+  L.value = std::move(value);
   return true;
 }
 

@@ -17,18 +17,25 @@
 
 namespace arap {
 
-// L in compressed sparse columns, the diagonal first in each column and the
-// rows of a column in increasing order; the explicit zeros amalgamation
-// introduced are dropped.
-struct SparseFactor {
-  std::vector<long> outer;  // n + 1 column starts
-  std::vector<int> inner;   // row of each entry
+// L by supernodes: supernode s holds the columns [first[s], first[s + 1]),
+// whose rows are rows[row_start[s] .. row_start[s + 1]) (its own columns
+// first, then the rows below, increasing); its values are a dense
+// column-major block of (row count) by (column count) at value[value_start[s]]
+// (the part above the diagonal unused). Column j's diagonal is in its
+// supernode's row j - first[s], its entries below follow it. A factor with one
+// column per supernode is plain compressed sparse columns.
+struct SupernodalFactor {
+  std::vector<int> first;  // m + 1 (n last)
+  std::vector<long> row_start, value_start;  // m + 1
+  std::vector<int> rows;
   std::vector<double> value;
-  void clear() { outer.clear(), inner.clear(), value.clear(); }
+  int supernodes() const { return first.empty() ? 0 : static_cast<int>(first.size()) - 1; }
+  void clear() { *this = SupernodalFactor(); }
 };
 
-// Elimination tree of A (both triangles stored): parent[j] > j, or -1 for a root.
-std::vector<int> elimination_tree(const Eigen::SparseMatrix<double>& A);
+// Elimination tree of P A P^T (A: both triangles stored; order[new] = old,
+// or the identity if empty): parent[j] > j, or -1 for a root.
+std::vector<int> elimination_tree(const Eigen::SparseMatrix<double>& A, const std::vector<int>& order = {});
 
 // An order of the columns in which every part [bounds[k], bounds[k+1]) stays
 // where it is and, within it, the elimination tree is postordered (children
@@ -40,6 +47,6 @@ std::vector<int> postorder_within_parts(const std::vector<int>& parent, const st
 // Factors A (both triangles stored, elimination tree postordered, see above).
 // Supernodes never span two parts [bounds[k], bounds[k+1]). Returns false (L
 // cleared) if A is not positive definite.
-bool supernodal_cholesky(const Eigen::SparseMatrix<double>& A, const std::vector<int>& bounds, SparseFactor& L);
+bool supernodal_cholesky(const Eigen::SparseMatrix<double>& A, const std::vector<int>& bounds, SupernodalFactor& L);
 
 }  // namespace arap
