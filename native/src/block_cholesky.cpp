@@ -106,80 +106,60 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel) 
     Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> llt(permuted);
     factored = Clock::now();  // the copy below is not part of Eigen's factorization
     ok = llt.info() == Eigen::Success;
-    if (ok) {  // one column per supernode; the up-looking factorization stores each column's diagonal first
+    if (ok) {  // the up-looking factorization stores each column's diagonal first
       const auto& L = llt.matrixL().nestedExpression();
-      L_.first.resize(n_ + 1);
-      for (Eigen::Index j = 0; j <= n_; ++j) L_.first[j] = static_cast<int>(j);
-      L_.row_start.assign(L.outerIndexPtr(), L.outerIndexPtr() + n_ + 1);
-      L_.value_start = L_.row_start;
-      L_.rows.assign(L.innerIndexPtr(), L.innerIndexPtr() + L.nonZeros());
+      L_.outer.assign(L.outerIndexPtr(), L.outerIndexPtr() + n_ + 1);
+      L_.inner.assign(L.innerIndexPtr(), L.innerIndexPtr() + L.nonZeros());
       L_.value.assign(L.valuePtr(), L.valuePtr() + L.nonZeros());
-      for (Eigen::Index j = 0; j < n_ && ok; ++j) ok = L_.rows[L_.row_start[j]] == j && L_.value[L_.row_start[j]] > 0;
     }
   }
   ordering_ms_ = std::chrono::duration<double, std::milli>(ordered - start).count();
   factor_ms_ = std::chrono::duration<double, std::milli>(factored - ordered).count();
   if (!ok) return L_.clear(), false;
-  // Each part's first supernode (they never span two parts).
-  for (int p = 0; p < 4; ++p)
-    part_supernode_[p] = static_cast<int>(std::lower_bound(L_.first.begin(), L_.first.end(), bounds[p]) - L_.first.begin());
   inv_diag_.resize(n_);
-  for (int s = 0; s < L_.supernodes(); ++s) {
-    const long height = L_.row_start[s + 1] - L_.row_start[s];
-    for (int c = 0; c < L_.first[s + 1] - L_.first[s]; ++c)
-      inv_diag_[L_.first[s] + c] = 1.0 / L_.value[L_.value_start[s] + c * height + c];
+  for (Eigen::Index j = 0; j < n_; ++j) {
+    const long p = L_.outer[j];
+    if (L_.inner[p] != j || !(L_.value[p] > 0)) return L_.clear(), false;
+    inv_diag_[j] = 1.0 / L_.value[p];
   }
   return true;
 }
 
-long BlockCholesky::nonzeros() const {
-  long entries = 0;
-  for (int s = 0; s < L_.supernodes(); ++s) {
-    const long width = L_.first[s + 1] - L_.first[s], height = L_.row_start[s + 1] - L_.row_start[s];
-    entries += width * height - width * (width - 1) / 2;
-  }
-  return entries;
-}
+long BlockCholesky::nonzeros() const { return n_ && !L_.outer.empty() ? L_.outer[n_] : 0; }
 
-void BlockCholesky::forward(double* y, int begin, int end, double* separator) const {
+void BlockCholesky::forward(double* y, Eigen::Index begin, Eigen::Index end, double* separator) const {
+  const long* outer = L_.outer.data();
+  const int* inner = L_.inner.data();
+  const double* value = L_.value.data();
   // L y = b column by column, each entry applied to all three columns.
-  for (int s = begin; s < end; ++s) {
-    const int* row = L_.rows.data() + L_.row_start[s];
-    const long height = L_.row_start[s + 1] - L_.row_start[s];
-    for (int c = 0; c < L_.first[s + 1] - L_.first[s]; ++c) {
-      const Eigen::Index j = L_.first[s] + c;
-      const double* column = L_.value.data() + L_.value_start[s] + c * height;
-      double* yj = y + 3 * j;
-      const double d = inv_diag_[j];
-      const double a = yj[0] * d, b = yj[1] * d, e = yj[2] * d;
-      yj[0] = a, yj[1] = b, yj[2] = e;
-      for (long r = c + 1; r < height; ++r) {
-        const Eigen::Index i = row[r];
-        double* yi = i < separator_ || !separator ? y + 3 * i : separator + 3 * (i - separator_);
-        const double l = column[r];
-        yi[0] -= l * a, yi[1] -= l * b, yi[2] -= l * e;
-      }
+  for (Eigen::Index j = begin; j < end; ++j) {
+    double* yj = y + 3 * j;
+    const double d = inv_diag_[j];
+    const double a = yj[0] * d, b = yj[1] * d, c = yj[2] * d;
+    yj[0] = a, yj[1] = b, yj[2] = c;
+    for (long p = outer[j] + 1; p < outer[j + 1]; ++p) {
+      const Eigen::Index i = inner[p];
+      double* yi = i < separator_ || !separator ? y + 3 * i : separator + 3 * (i - separator_);
+      const double l = value[p];
+      yi[0] -= l * a, yi[1] -= l * b, yi[2] -= l * c;
     }
   }
 }
 
-void BlockCholesky::backward(double* y, int begin, int end) const {
+void BlockCholesky::backward(double* y, Eigen::Index begin, Eigen::Index end) const {
+  const long* outer = L_.outer.data();
+  const int* inner = L_.inner.data();
+  const double* value = L_.value.data();
   // L^T x = y; column j of L is row j of L^T.
-  for (int s = end - 1; s >= begin; --s) {
-    const int* row = L_.rows.data() + L_.row_start[s];
-    const long height = L_.row_start[s + 1] - L_.row_start[s];
-    for (int c = L_.first[s + 1] - L_.first[s] - 1; c >= 0; --c) {
-      const Eigen::Index j = L_.first[s] + c;
-      const double* column = L_.value.data() + L_.value_start[s] + c * height;
-      double a = y[3 * j], b = y[3 * j + 1], e = y[3 * j + 2];
-      for (long r = c + 1; r < height; ++r) {
-        const double* yi = y + 3 * row[r];
-        const double l = column[r];
-        a -= l * yi[0], b -= l * yi[1], e -= l * yi[2];
-      }
-      const double d = inv_diag_[j];
-      y[3 * j] = a * d, y[3 * j + 1] = b * d, y[3 * j + 2] = e * d;
+  for (Eigen::Index j = end - 1; j >= begin; --j) {
+    double a = y[3 * j], b = y[3 * j + 1], c = y[3 * j + 2];
+    for (long p = outer[j] + 1; p < outer[j + 1]; ++p) {
+      const double* yi = y + 3 * inner[p];
+      const double l = value[p];
+      a -= l * yi[0], b -= l * yi[1], c -= l * yi[2];
     }
+    const double d = inv_diag_[j];
+    y[3 * j] = a * d, y[3 * j + 1] = b * d, y[3 * j + 2] = c * d;
   }
 }
 
@@ -198,20 +178,20 @@ void BlockCholesky::solve_in_place(double* x, std::vector<double>& work, int thr
   // summed afterwards in a fixed order, whatever ran them.
   {
     std::thread second;
-    if (parallel) second = std::thread([&] { forward(y, part_supernode_[1], part_supernode_[2], partial[1]); });
-    forward(y, part_supernode_[0], part_supernode_[1], partial[0]);
+    if (parallel) second = std::thread([&] { forward(y, half_[0], separator_, partial[1]); });
+    forward(y, 0, half_[0], partial[0]);
     if (parallel) second.join();
-    else forward(y, part_supernode_[1], part_supernode_[2], partial[1]);
+    else forward(y, half_[0], separator_, partial[1]);
   }
   for (Eigen::Index k = 0; k < 3 * separator_rows; ++k) y[3 * separator_ + k] += partial[0][k] + partial[1][k];
-  forward(y, part_supernode_[2], part_supernode_[3], nullptr);
-  backward(y, part_supernode_[2], part_supernode_[3]);
+  forward(y, separator_, n_, nullptr);
+  backward(y, separator_, n_);
   {
     std::thread second;
-    if (parallel) second = std::thread([&] { backward(y, part_supernode_[1], part_supernode_[2]); });
-    backward(y, part_supernode_[0], part_supernode_[1]);
+    if (parallel) second = std::thread([&] { backward(y, half_[0], separator_); });
+    backward(y, 0, half_[0]);
     if (parallel) second.join();
-    else backward(y, part_supernode_[1], part_supernode_[2]);
+    else backward(y, half_[0], separator_);
   }
   for (Eigen::Index i = 0; i < n_; ++i) {
     double* dst = x + 3 * perm_[i];

@@ -30,25 +30,22 @@ class BlockCholesky {
   // x: rows() by 3 row-major, overwritten with A^-1 x. `work` is resized once.
   // threads > 1 solves the two halves side by side.
   void solve_in_place(double* x, std::vector<double>& work, int threads = 1) const;
-  // Entries of L as stored: the explicit zeros of merged supernodes included.
   long nonzeros() const;
   // Columns of the first half, the second half and the separator.
   Eigen::Index first_half() const { return half_[0]; }
   Eigen::Index second_half() const { return half_[1]; }
 
  private:
-  // Forward / backward substitution over supernodes [begin, end) of L; forward
+  // Forward / backward substitution over columns [begin, end) of L; forward
   // updates to rows >= separator_ go to `separator` (3 per row) instead of y.
-  // The zeros of merged supernodes change nothing (y - 0 * a == y).
-  void forward(double* y, int begin, int end, double* separator) const;
-  void backward(double* y, int begin, int end) const;
+  void forward(double* y, Eigen::Index begin, Eigen::Index end, double* separator) const;
+  void backward(double* y, Eigen::Index begin, Eigen::Index end) const;
 
   Eigen::Index n_ = 0;
   Eigen::Index half_[2] = {0, 0};
   Eigen::Index separator_ = 0;  // first separator column (= half_[0] + half_[1])
   Eigen::VectorXi perm_;  // row i of P A P^T is row perm_[i] of A
-  SupernodalFactor L_;  // of P A P^T
-  int part_supernode_[4] = {0, 0, 0, 0};  // first supernode of each half, of the separator; the count
+  SparseFactor L_;  // of P A P^T, the diagonal first in each column
   std::vector<double> inv_diag_;
   double ordering_ms_ = 0, factor_ms_ = 0;
 };

@@ -153,7 +153,7 @@ std::vector<int> postorder_within_parts(const std::vector<int>& parent, const st
   return order;
 }
 
-bool supernodal_cholesky(const Sparse& A, const std::vector<int>& bounds, SupernodalFactor& L) {
+bool supernodal_cholesky(const Sparse& A, const std::vector<int>& bounds, SparseFactor& L) {
   L.clear();
   const int n = static_cast<int>(A.rows());
   const std::vector<int> parent = elimination_tree(A);
@@ -245,7 +245,7 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& bounds, Supern
     Block diagonal(block, width, width, Eigen::OuterStride<>(height));
     Eigen::Ref<Eigen::MatrixXd> diagonal_ref(diagonal);
     Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(diagonal_ref);
-    if (llt.info() != Eigen::Success) return false;
+    if (llt.info() != Eigen::Success) return L.clear(), false;
     if (height > width) {
       if (avx2) {
         solve_transposed_avx2(block + width, height, height - width, block, height, width, pack);
@@ -259,18 +259,26 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& bounds, Supern
     }
   }
 
-  // The diagonal of a positive definite matrix's factor is positive (and finite).
+  // Compressed columns without the zeros amalgamation added (an entry outside
+  // L's structure is a sum of products each with an exact zero: exactly zero),
+  // written over the blocks' own storage: an entry never moves forward.
+  L.outer.assign(n + 1, 0);
+  L.inner.reserve(static_cast<size_t>(value_start[m] / 2));
+  long p = 0;
   for (int s = 0; s < m; ++s) {
+    const int* row = rows.data() + row_start[s];
     const long height = row_start[s + 1] - row_start[s];
     for (int c = 0; c < first[s + 1] - first[s]; ++c) {
-      const double d = value[value_start[s] + c * height + c];
-      if (!(d > 0) || !std::isfinite(d)) return false;
+      const double* column = value.data() + value_start[s] + c * height;
+      if (!(column[c] > 0) || !std::isfinite(column[c])) return L.clear(), false;
+      L.inner.push_back(row[c]);
+      value[p++] = column[c];
+      for (long r = c + 1; r < height; ++r)
+        if (column[r] != 0) L.inner.push_back(row[r]), value[p++] = column[r];
+      L.outer[first[s] + c + 1] = p;
     }
   }
-  L.first = std::move(first);
-  L.row_start = std::move(row_start);
-  L.value_start = std::move(value_start);
-  L.rows = std::move(rows);
+  value.resize(static_cast<size_t>(p));
   L.value = std::move(value);
   return true;
 }

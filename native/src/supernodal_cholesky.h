@@ -17,20 +17,14 @@
 
 namespace arap {
 
-// L by supernodes: supernode s holds the columns [first[s], first[s + 1]),
-// whose rows are rows[row_start[s] .. row_start[s + 1]) (its own columns
-// first, then the rows below, increasing); its values are a dense
-// column-major block of (row count) by (column count) at value[value_start[s]]
-// (the part above the diagonal unused). Column j's diagonal is in its
-// supernode's row j - first[s], its entries below follow it. A factor with one
-// column per supernode is plain compressed sparse columns.
-struct SupernodalFactor {
-  std::vector<int> first;  // m + 1 (n last)
-  std::vector<long> row_start, value_start;  // m + 1
-  std::vector<int> rows;
+// L in compressed sparse columns, the diagonal first in each column and the
+// rows of a column in increasing order; the explicit zeros amalgamation
+// introduced are dropped.
+struct SparseFactor {
+  std::vector<long> outer;  // n + 1 column starts
+  std::vector<int> inner;   // row of each entry
   std::vector<double> value;
-  int supernodes() const { return first.empty() ? 0 : static_cast<int>(first.size()) - 1; }
-  void clear() { *this = SupernodalFactor(); }
+  void clear() { *this = SparseFactor(); }
 };
 
 // Elimination tree of P A P^T (A: both triangles stored; order[new] = old,
@@ -47,6 +41,6 @@ std::vector<int> postorder_within_parts(const std::vector<int>& parent, const st
 // Factors A (both triangles stored, elimination tree postordered, see above).
 // Supernodes never span two parts [bounds[k], bounds[k+1]). Returns false (L
 // cleared) if A is not positive definite.
-bool supernodal_cholesky(const Eigen::SparseMatrix<double>& A, const std::vector<int>& bounds, SupernodalFactor& L);
+bool supernodal_cholesky(const Eigen::SparseMatrix<double>& A, const std::vector<int>& bounds, SparseFactor& L);
 
 }  // namespace arap

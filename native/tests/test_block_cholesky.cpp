@@ -129,24 +129,35 @@ TEST(BlockCholesky, RefusesMatricesThatAreNotPositiveDefinite) {
   EXPECT_TRUE(chol.factor(mesh_matrix(arap::procedural::make_sphere(3000), 1e-3, 8)));
 }
 
-// Supernodes merge columns (fewer supernodes than columns), and the merged
-// blocks' explicit zeros stay exact zeros, so the solve matches a factor
-// without them.
-TEST(BlockCholesky, SupernodesMergeColumns) {
-  const Sparse A = mesh_matrix(arap::procedural::make_sphere(3000), 1e-3, 9);
-  arap::BlockCholesky simplicial, supernodal;
-  ASSERT_TRUE(simplicial.factor(A, arap::BlockCholesky::Kernel::Simplicial));
-  ASSERT_TRUE(supernodal.factor(A));
-  EXPECT_GT(supernodal.nonzeros(), simplicial.nonzeros());  // the zeros of merged supernodes
-  arap::SupernodalFactor L;
-  std::vector<int> bounds = {0, static_cast<int>(A.rows()), static_cast<int>(A.rows()), static_cast<int>(A.rows())};
-  const std::vector<int> order = arap::postorder_within_parts(arap::elimination_tree(A), bounds);
-  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> P(A.rows());
-  for (int i = 0; i < A.rows(); ++i) P.indices()[order[i]] = i;
-  Sparse postordered;
-  postordered = A.selfadjointView<Eigen::Lower>().twistedBy(P);
-  ASSERT_TRUE(arap::supernodal_cholesky(postordered, bounds, L));
-  EXPECT_LT(L.supernodes(), A.rows() / 2);
+// Merged supernodes store explicit zeros; the factor keeps none of them: it has
+// the entries of Eigen's simplicial factor of the same ordered matrix, no more.
+TEST(BlockCholesky, MergedSupernodesLeaveNoZeros) {
+  for (int vertices : {3000, 24000}) {
+    const Sparse A = mesh_matrix(arap::procedural::make_bar_with_vertices(vertices), 1e-3, 9);
+    arap::BlockCholesky simplicial, supernodal;
+    ASSERT_TRUE(simplicial.factor(A, arap::BlockCholesky::Kernel::Simplicial));
+    ASSERT_TRUE(supernodal.factor(A));
+    EXPECT_EQ(supernodal.nonzeros(), simplicial.nonzeros()) << vertices;
+  }
+}
+
+// The postorder keeps each part in place and puts children before parents.
+TEST(BlockCholesky, PostorderStaysWithinParts) {
+  const Sparse A = mesh_matrix(arap::procedural::make_sphere(2000), 1e-3, 10);
+  const int n = static_cast<int>(A.rows());
+  const std::vector<int> bounds = {0, n / 3, n / 2, n};
+  const std::vector<int> parent = arap::elimination_tree(A);
+  const std::vector<int> order = arap::postorder_within_parts(parent, bounds);
+  ASSERT_EQ(static_cast<int>(order.size()), n);
+  std::vector<int> position(n, -1);
+  for (int k = 0; k < n; ++k) position[order[k]] = k;
+  for (int j = 0; j < n; ++j) {
+    ASSERT_GE(position[j], 0);
+    const int part = j < bounds[1] ? 0 : j < bounds[2] ? 1 : 2;
+    EXPECT_GE(position[j], bounds[part]);
+    EXPECT_LT(position[j], bounds[part + 1]);
+    if (parent[j] >= 0 && parent[j] < bounds[part + 1]) EXPECT_LT(position[j], position[parent[j]]);
+  }
 }
 
 // The AVX2 kernel against a plain product, on sizes that hit every remainder.
