@@ -229,10 +229,16 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& bounds, Sparse
       }
       relative.resize(tall);
       for (long r = 0; r < tall; ++r) relative[r] = map[drow[p1 + r]];
+      const bool contiguous = relative[tall - 1] - relative[0] == tall - 1;  // the usual case: no gather
       for (long c = 0; c < wide; ++c) {
         double* column = block + (drow[p1 + c] - begin) * height;
         const double* u = update.data() + c * ldc;
-        for (long r = c; r < tall; ++r) column[relative[r]] -= u[r];
+        if (contiguous) {
+          double* target = column + relative[0];
+          for (long r = c; r < tall; ++r) target[r] -= u[r];
+        } else {
+          for (long r = c; r < tall; ++r) column[relative[r]] -= u[r];
+        }
       }
       cursor[d] = p2;
       if (p2 < dheight) {
@@ -263,7 +269,13 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& bounds, Sparse
   // L's structure is a sum of products each with an exact zero: exactly zero),
   // written over the blocks' own storage: an entry never moves forward.
   L.outer.assign(n + 1, 0);
-  L.inner.reserve(static_cast<size_t>(value_start[m] / 2));
+  long stored = 0;
+  for (int s = 0; s < m; ++s) {
+    const long width = first[s + 1] - first[s], height = row_start[s + 1] - row_start[s];
+    stored += width * height - width * (width - 1) / 2;
+  }
+  L.inner.resize(static_cast<size_t>(stored));  // an upper bound, cut below
+  int* inner = L.inner.data();
   long p = 0;
   for (int s = 0; s < m; ++s) {
     const int* row = rows.data() + row_start[s];
@@ -271,13 +283,16 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& bounds, Sparse
     for (int c = 0; c < first[s + 1] - first[s]; ++c) {
       const double* column = value.data() + value_start[s] + c * height;
       if (!(column[c] > 0) || !std::isfinite(column[c])) return L.clear(), false;
-      L.inner.push_back(row[c]);
-      value[p++] = column[c];
-      for (long r = c + 1; r < height; ++r)
-        if (column[r] != 0) L.inner.push_back(row[r]), value[p++] = column[r];
+      inner[p] = row[c], value[p++] = column[c];
+      for (long r = c + 1; r < height; ++r) {
+        const double v = column[r];
+        inner[p] = row[r], value[p] = v;  // kept only if nonzero: p moves on
+        p += v != 0;
+      }
       L.outer[first[s] + c + 1] = p;
     }
   }
+  L.inner.resize(static_cast<size_t>(p));
   value.resize(static_cast<size_t>(p));
   L.value = std::move(value);
   return true;
