@@ -17,24 +17,34 @@ constexpr Eigen::Index kSplitRows = 20000;
 using Permutation = Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int>;
 
 // AMD order of the rows `rows` of A (both triangles), as indices into A.
+// A's pattern is already symmetric, so Eigen's AMD runs on it directly,
+// without AMDOrdering's A + A^T.
 std::vector<int> amd_order(const Eigen::SparseMatrix<double>& A, const std::vector<int>& rows,
                            std::vector<int>& local) {
   const int m = static_cast<int>(rows.size());
   if (m == 0) return {};
-  Eigen::AMDOrdering<int> amd;
   Permutation Pinv;
-  if (m == A.rows()) {  // the whole matrix (rows in order): no copy
-    amd(A, Pinv);  // as in Eigen's own Cholesky: Pinv.indices()[new] = old
+  if (m == A.rows()) {  // the whole matrix (rows in order): a plain copy, which AMD overwrites
+    Eigen::SparseMatrix<double> copy = A;
+    Eigen::internal::minimum_degree_ordering(copy, Pinv);  // Pinv.indices()[new] = old
     return std::vector<int>(Pinv.indices().data(), Pinv.indices().data() + m);
   }
   for (int k = 0; k < m; ++k) local[rows[k]] = k;
-  std::vector<Eigen::Triplet<double>> entries;
-  for (int k = 0; k < m; ++k)
+  Eigen::SparseMatrix<double> sub(m, m);  // the pattern only
+  std::vector<int> inner;
+  inner.reserve(A.nonZeros());
+  sub.outerIndexPtr()[0] = 0;
+  for (int k = 0; k < m; ++k) {
+    const size_t begin = inner.size();
     for (Eigen::SparseMatrix<double>::InnerIterator it(A, rows[k]); it; ++it)
-      if (local[it.row()] >= 0) entries.emplace_back(local[it.row()], k, it.value());
-  Eigen::SparseMatrix<double> sub(m, m);
-  sub.setFromTriplets(entries.begin(), entries.end());
-  amd(sub, Pinv);
+      if (local[it.row()] >= 0) inner.push_back(local[it.row()]);
+    std::sort(inner.begin() + static_cast<long>(begin), inner.end());
+    sub.outerIndexPtr()[k + 1] = static_cast<int>(inner.size());
+  }
+  sub.resizeNonZeros(static_cast<Eigen::Index>(inner.size()));
+  std::copy(inner.begin(), inner.end(), sub.innerIndexPtr());
+  std::fill(sub.valuePtr(), sub.valuePtr() + inner.size(), 1.0);
+  Eigen::internal::minimum_degree_ordering(sub, Pinv);  // Pinv.indices()[new] = old
   std::vector<int> out(m);
   for (int k = 0; k < m; ++k) out[k] = rows[Pinv.indices()[k]];
   for (int k = 0; k < m; ++k) local[rows[k]] = -1;
@@ -89,9 +99,12 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel) 
   const std::vector<int> bounds = {0, static_cast<int>(half_[0]), static_cast<int>(separator_), static_cast<int>(n_)};
   // The supernodes need the elimination tree postordered: an equivalent order
   // (the same fill), kept within each half and the separator.
-  const std::vector<int> post = postorder_within_parts(elimination_tree(A, order), bounds);
+  const std::vector<int> tree = elimination_tree(A, order);
+  const std::vector<int> post = postorder_within_parts(tree, bounds);
   perm_.resize(n_);
-  for (Eigen::Index i = 0; i < n_; ++i) perm_[i] = order[post[i]];
+  std::vector<int> position(n_), parent(n_);  // the tree in the final order
+  for (Eigen::Index i = 0; i < n_; ++i) perm_[i] = order[post[i]], position[post[i]] = static_cast<int>(i);
+  for (Eigen::Index i = 0; i < n_; ++i) parent[i] = tree[post[i]] < 0 ? -1 : position[tree[post[i]]];
   Permutation P(n_);  // P.indices()[old] = new
   for (Eigen::Index i = 0; i < n_; ++i) P.indices()[perm_[i]] = static_cast<int>(i);
   Eigen::SparseMatrix<double> permuted;
@@ -100,7 +113,7 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel) 
   auto factored = ordered;
   bool ok;
   if (kernel == Kernel::Supernodal) {
-    ok = supernodal_cholesky(permuted, bounds, L_);
+    ok = supernodal_cholesky(permuted, parent, bounds, L_);
     factored = Clock::now();
   } else {
     Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> llt(permuted);

@@ -153,10 +153,10 @@ std::vector<int> postorder_within_parts(const std::vector<int>& parent, const st
   return order;
 }
 
-bool supernodal_cholesky(const Sparse& A, const std::vector<int>& bounds, SparseFactor& L) {
+bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const std::vector<int>& bounds,
+                         SparseFactor& L) {
   L.clear();
   const int n = static_cast<int>(A.rows());
-  const std::vector<int> parent = elimination_tree(A);
   std::vector<int> first = supernodes(parent, column_counts(A, parent), part_ends(bounds, n));
   const int m = static_cast<int>(first.size()) - 1;
   std::vector<int> super_of(n);
