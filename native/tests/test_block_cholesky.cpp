@@ -129,6 +129,15 @@ TEST(BlockCholesky, RefusesMatricesThatAreNotPositiveDefinite) {
   EXPECT_TRUE(chol.factor(mesh_matrix(arap::procedural::make_sphere(3000), 1e-3, 8)));
 }
 
+// Every vertex constrained leaves an empty free block: it factors, and solves nothing.
+TEST(BlockCholesky, EmptyMatrix) {
+  arap::BlockCholesky chol;
+  ASSERT_TRUE(chol.factor(Sparse(0, 0)));
+  EXPECT_EQ(chol.nonzeros(), 0);
+  std::vector<double> x, work;
+  chol.solve_in_place(x.data(), work, 2);
+}
+
 // Merged supernodes store explicit zeros; the factor keeps none of them: it has
 // the entries of Eigen's simplicial factor of the same ordered matrix, no more.
 TEST(BlockCholesky, MergedSupernodesLeaveNoZeros) {
