@@ -9,7 +9,9 @@
 // matrix products (C = L_d L_d^T on the rows they share), scatters them into
 // its block, then factors its diagonal block and solves its off-diagonal rows,
 // so nearly all the arithmetic runs in dense kernels instead of one sparse
-// column at a time.
+// column at a time: dense_kernels.h's AVX2 + FMA ones where the processor has
+// them (unless ARAP_NO_AVX2 is set in the environment), Eigen's otherwise. The
+// result is deterministic on a given processor; the two paths round differently.
 #pragma once
 
 #include <Eigen/SparseCore>
