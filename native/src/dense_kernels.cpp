@@ -2,8 +2,17 @@
 
 #include <cstddef>
 
+// GCC and Clang on x86-64: the kernels are compiled for AVX2 + FMA whatever
+// the flags of the rest of the build; elsewhere they are never called.
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define ARAP_AVX2_KERNELS 1
+#else
+#define ARAP_AVX2_KERNELS 0
+#endif
+
 namespace arap {
 
+#if ARAP_AVX2_KERNELS
 namespace {
 
 // Four doubles: one AVX register inside the AVX2 function (GCC and Clang
@@ -110,12 +119,8 @@ __attribute__((target("avx2,fma"))) void solve_avx2(double* B, long ldb, long ro
 }  // namespace
 
 bool have_avx2_fma() {
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
   static const bool yes = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
   return yes;
-#else
-  return false;
-#endif
 }
 
 long product_rows(long m) { return (m + kRows - 1) / kRows * kRows; }
@@ -141,5 +146,15 @@ void solve_transposed_avx2(double* B, long ldb, long rows, const double* L, long
     for (long t = 0; t <= c; ++t) pack[t + c * w] = L[c + t * ldl];
   solve_avx2(B, ldb, rows, pack.data(), w);
 }
+
+#else  // no AVX2 kernels on this platform
+
+bool have_avx2_fma() { return false; }
+long product_rows(long m) { return m; }
+long product_columns(long k) { return k; }
+void lower_product_avx2(const double*, long, long, long, long, double*, std::vector<double>&) {}
+void solve_transposed_avx2(double*, long, long, const double*, long, long, std::vector<double>&) {}
+
+#endif
 
 }  // namespace arap

@@ -1,7 +1,9 @@
-// Dense kernel of the supernodal Cholesky: the product of a column block of
-// L with the transpose of its first rows, written for AVX2 + FMA and chosen at
-// run time, so that a build for any x86-64 still uses the wider registers where
-// the processor has them.
+// Dense kernels of the supernodal Cholesky (the product of a column block of L
+// with the transpose of its first rows; the triangular solve of the rows below
+// a diagonal block), written for AVX2 + FMA and chosen at run time, so that a
+// build for any x86-64 still uses the wider registers where the processor has
+// them. Elsewhere (other processors, other architectures) the caller uses
+// Eigen's products.
 #pragma once
 
 #include <vector>
