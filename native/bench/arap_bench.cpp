@@ -325,6 +325,7 @@ json run_cgal(const bench::Case& c, const Args& args, double reference_clamped) 
   for (double ms : res.iteration_ms) elapsed.push_back(clock += ms);
   json r = {{"build_ms", res.build_ms},
             {"preprocess_ms", res.preprocess_ms},
+            {"preprocess_cpu_ms", res.preprocess_cpu_ms},
             {"iterations", res.iteration_ms.size()},
             {"iteration_ms", spread(res.iteration_ms)},
             {"peak_mib", peak_mib},

@@ -41,6 +41,7 @@ CgalResult run_cgal_arap(const arap::Points& rest, const arap::Triangles& triang
   result.build_ms = ms_since(t);
 
   t = Clock::now();
+  const double preprocess_cpu = thread_cpu_ms();
   Deformation deformation(mesh);
   deformation.insert_roi_vertices(mesh.vertices().begin(), mesh.vertices().end());
   for (int v : constrained) deformation.insert_control_vertex(vertex[v]);
@@ -49,6 +50,7 @@ CgalResult run_cgal_arap(const arap::Points& rest, const arap::Triangles& triang
     return result;
   }
   result.preprocess_ms = ms_since(t);
+  result.preprocess_cpu_ms = thread_cpu_ms() - preprocess_cpu;
 
   for (size_t s = 0; s < constrained.size(); ++s) {
     const auto row = targets.row(static_cast<Eigen::Index>(s));

@@ -16,6 +16,7 @@ struct CgalResult {
   std::string error;
   double build_ms = 0;       // Surface_mesh construction from the arrays
   double preprocess_ms = 0;  // ROI and control vertices, weights, factorization
+  double preprocess_cpu_ms = 0;  // the same in CPU time of the calling thread
   std::vector<double> iteration_ms;  // each deform(1, 0) call
   std::vector<double> iteration_cpu_ms;  // the same in CPU time of the calling thread
 };

@@ -5,6 +5,7 @@
 #include <thread>
 
 #include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
 
 namespace arap {
 
@@ -16,24 +17,34 @@ constexpr Eigen::Index kSplitRows = 20000;
 using Permutation = Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int>;
 
 // AMD order of the rows `rows` of A (both triangles), as indices into A.
+// A's pattern is already symmetric, so Eigen's AMD runs on it directly,
+// without AMDOrdering's A + A^T.
 std::vector<int> amd_order(const Eigen::SparseMatrix<double>& A, const std::vector<int>& rows,
                            std::vector<int>& local) {
   const int m = static_cast<int>(rows.size());
   if (m == 0) return {};
-  Eigen::AMDOrdering<int> amd;
   Permutation Pinv;
-  if (m == A.rows()) {  // the whole matrix (rows in order): no copy
-    amd(A, Pinv);  // as in Eigen's own Cholesky: Pinv.indices()[new] = old
+  if (m == A.rows()) {  // the whole matrix (rows in order): a plain copy, which AMD overwrites
+    Eigen::SparseMatrix<double> copy = A;
+    Eigen::internal::minimum_degree_ordering(copy, Pinv);  // Pinv.indices()[new] = old
     return std::vector<int>(Pinv.indices().data(), Pinv.indices().data() + m);
   }
   for (int k = 0; k < m; ++k) local[rows[k]] = k;
-  std::vector<Eigen::Triplet<double>> entries;
-  for (int k = 0; k < m; ++k)
+  Eigen::SparseMatrix<double> sub(m, m);  // the pattern only
+  std::vector<int> inner;
+  inner.reserve(A.nonZeros());
+  sub.outerIndexPtr()[0] = 0;
+  for (int k = 0; k < m; ++k) {
+    const size_t begin = inner.size();
     for (Eigen::SparseMatrix<double>::InnerIterator it(A, rows[k]); it; ++it)
-      if (local[it.row()] >= 0) entries.emplace_back(local[it.row()], k, it.value());
-  Eigen::SparseMatrix<double> sub(m, m);
-  sub.setFromTriplets(entries.begin(), entries.end());
-  amd(sub, Pinv);
+      if (local[it.row()] >= 0) inner.push_back(local[it.row()]);
+    std::sort(inner.begin() + static_cast<long>(begin), inner.end());
+    sub.outerIndexPtr()[k + 1] = static_cast<int>(inner.size());
+  }
+  sub.resizeNonZeros(static_cast<Eigen::Index>(inner.size()));
+  std::copy(inner.begin(), inner.end(), sub.innerIndexPtr());
+  std::fill(sub.valuePtr(), sub.valuePtr() + inner.size(), 1.0);
+  Eigen::internal::minimum_degree_ordering(sub, Pinv);  // Pinv.indices()[new] = old
   std::vector<int> out(m);
   for (int k = 0; k < m; ++k) out[k] = rows[Pinv.indices()[k]];
   for (int k = 0; k < m; ++k) local[rows[k]] = -1;
@@ -66,10 +77,11 @@ void split(const Eigen::SparseMatrix<double>& A, std::vector<int> part[3]) {
 
 }  // namespace
 
-bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A) {
+bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel) {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   n_ = A.rows();
+  L_.clear();
   std::vector<int> part[3];
   if (n_ >= kSplitRows) {
     split(A, part);
@@ -77,48 +89,68 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A) {
     part[0].resize(n_);
     for (Eigen::Index k = 0; k < n_; ++k) part[0][k] = static_cast<int>(k);
   }
-  perm_.resize(n_);
-  std::vector<int> local(n_, -1);
-  Eigen::Index next = 0;
+  std::vector<int> order, local(n_, -1);
+  order.reserve(n_);
   for (int p = 0; p < 3; ++p)
-    for (int row : amd_order(A, part[p], local)) perm_[next++] = row;
+    for (int row : amd_order(A, part[p], local)) order.push_back(row);
   half_[0] = static_cast<Eigen::Index>(part[0].size());
   half_[1] = static_cast<Eigen::Index>(part[1].size());
   separator_ = half_[0] + half_[1];
+  const std::vector<int> bounds = {0, static_cast<int>(half_[0]), static_cast<int>(separator_), static_cast<int>(n_)};
+  // The supernodes need the elimination tree postordered: an equivalent order
+  // (the same fill), kept within each half and the separator.
+  const std::vector<int> tree = elimination_tree(A, order);
+  const std::vector<int> post = postorder_within_parts(tree, bounds);
+  perm_.resize(n_);
+  std::vector<int> position(n_), parent(n_);  // the tree in the final order
+  for (Eigen::Index i = 0; i < n_; ++i) perm_[i] = order[post[i]], position[post[i]] = static_cast<int>(i);
+  for (Eigen::Index i = 0; i < n_; ++i) parent[i] = tree[post[i]] < 0 ? -1 : position[tree[post[i]]];
   Permutation P(n_);  // P.indices()[old] = new
   for (Eigen::Index i = 0; i < n_; ++i) P.indices()[perm_[i]] = static_cast<int>(i);
   Eigen::SparseMatrix<double> permuted;
   permuted = A.selfadjointView<Eigen::Lower>().twistedBy(P);
   const auto ordered = Clock::now();
-  llt_.compute(permuted);
+  auto factored = ordered;
+  bool ok;
+  if (kernel == Kernel::Supernodal) {
+    ok = supernodal_cholesky(permuted, parent, bounds, L_);
+    factored = Clock::now();
+  } else {
+    Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> llt(permuted);
+    factored = Clock::now();  // the copy below is not part of Eigen's factorization
+    ok = llt.info() == Eigen::Success;
+    if (ok) {  // the up-looking factorization stores each column's diagonal first
+      const auto& L = llt.matrixL().nestedExpression();
+      L_.outer.assign(L.outerIndexPtr(), L.outerIndexPtr() + n_ + 1);
+      L_.inner.assign(L.innerIndexPtr(), L.innerIndexPtr() + L.nonZeros());
+      L_.value.assign(L.valuePtr(), L.valuePtr() + L.nonZeros());
+    }
+  }
   ordering_ms_ = std::chrono::duration<double, std::milli>(ordered - start).count();
-  factor_ms_ = std::chrono::duration<double, std::milli>(Clock::now() - ordered).count();
-  if (llt_.info() != Eigen::Success) return false;
-  // The up-looking factorization stores each column's diagonal first.
-  const auto& L = llt_.matrixL().nestedExpression();
+  factor_ms_ = std::chrono::duration<double, std::milli>(factored - ordered).count();
+  if (!ok) return L_.clear(), false;
   inv_diag_.resize(n_);
   for (Eigen::Index j = 0; j < n_; ++j) {
-    const int p = L.outerIndexPtr()[j];
-    if (L.innerIndexPtr()[p] != j || !(L.valuePtr()[p] > 0)) return false;
-    inv_diag_[j] = 1.0 / L.valuePtr()[p];
+    const long p = L_.outer[j];
+    if (L_.inner[p] != j || !(L_.value[p] > 0)) return L_.clear(), false;
+    inv_diag_[j] = 1.0 / L_.value[p];
   }
   return true;
 }
 
-long BlockCholesky::nonzeros() const { return n_ ? static_cast<long>(llt_.matrixL().nestedExpression().nonZeros()) : 0; }
+long BlockCholesky::nonzeros() const { return n_ && !L_.outer.empty() ? L_.outer[n_] : 0; }
 
 void BlockCholesky::forward(double* y, Eigen::Index begin, Eigen::Index end, double* separator) const {
-  const auto& L = llt_.matrixL().nestedExpression();
-  const int* outer = L.outerIndexPtr();
-  const int* inner = L.innerIndexPtr();
-  const double* value = L.valuePtr();
+  const long* outer = L_.outer.data();
+  const int* inner = L_.inner.data();
+  const double* value = L_.value.data();
   // L y = b column by column, each entry applied to all three columns.
   for (Eigen::Index j = begin; j < end; ++j) {
     double* yj = y + 3 * j;
     const double d = inv_diag_[j];
     const double a = yj[0] * d, b = yj[1] * d, c = yj[2] * d;
     yj[0] = a, yj[1] = b, yj[2] = c;
-    for (int p = outer[j] + 1; p < outer[j + 1]; ++p) {
+    for (long p = outer[j] + 1; p < outer[j + 1]; ++p) {
       const Eigen::Index i = inner[p];
       double* yi = i < separator_ || !separator ? y + 3 * i : separator + 3 * (i - separator_);
       const double l = value[p];
@@ -128,14 +160,13 @@ void BlockCholesky::forward(double* y, Eigen::Index begin, Eigen::Index end, dou
 }
 
 void BlockCholesky::backward(double* y, Eigen::Index begin, Eigen::Index end) const {
-  const auto& L = llt_.matrixL().nestedExpression();
-  const int* outer = L.outerIndexPtr();
-  const int* inner = L.innerIndexPtr();
-  const double* value = L.valuePtr();
+  const long* outer = L_.outer.data();
+  const int* inner = L_.inner.data();
+  const double* value = L_.value.data();
   // L^T x = y; column j of L is row j of L^T.
   for (Eigen::Index j = end - 1; j >= begin; --j) {
     double a = y[3 * j], b = y[3 * j + 1], c = y[3 * j + 2];
-    for (int p = outer[j] + 1; p < outer[j + 1]; ++p) {
+    for (long p = outer[j] + 1; p < outer[j + 1]; ++p) {
       const double* yi = y + 3 * inner[p];
       const double l = value[p];
       a -= l * yi[0], b -= l * yi[1], c -= l * yi[2];

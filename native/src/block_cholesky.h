@@ -7,19 +7,24 @@
 // comes last, so the factor has no entry coupling the halves and the two
 // halves of each triangular solve can run on two threads. The split does not
 // depend on the thread count: the result is the same bit for bit.
+//
+// The numeric factorization is supernodal (supernodal_cholesky.h); Eigen's
+// simplicial one, column by column, stays selectable for comparison.
 #pragma once
 
-#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <vector>
+
+#include "supernodal_cholesky.h"
 
 namespace arap {
 
 class BlockCholesky {
  public:
+  enum class Kernel { Supernodal, Simplicial };
   // A: both triangles stored. Orders (see above), factors P A P^T = L L^T.
   // Returns false if A is not SPD.
-  bool factor(const Eigen::SparseMatrix<double>& A);
+  bool factor(const Eigen::SparseMatrix<double>& A, Kernel kernel = Kernel::Supernodal);
   double ordering_ms() const { return ordering_ms_; }
   double factor_ms() const { return factor_ms_; }
   // x: rows() by 3 row-major, overwritten with A^-1 x. `work` is resized once.
@@ -40,7 +45,7 @@ class BlockCholesky {
   Eigen::Index half_[2] = {0, 0};
   Eigen::Index separator_ = 0;  // first separator column (= half_[0] + half_[1])
   Eigen::VectorXi perm_;  // row i of P A P^T is row perm_[i] of A
-  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> llt_;
+  SparseFactor L_;  // of P A P^T, the diagonal first in each column
   std::vector<double> inv_diag_;
   double ordering_ms_ = 0, factor_ms_ = 0;
 };

@@ -1,0 +1,160 @@
+#include "dense_kernels.h"
+
+#include <cstddef>
+
+// GCC and Clang on x86-64: the kernels are compiled for AVX2 + FMA whatever
+// the flags of the rest of the build; elsewhere they are never called.
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define ARAP_AVX2_KERNELS 1
+#else
+#define ARAP_AVX2_KERNELS 0
+#endif
+
+namespace arap {
+
+#if ARAP_AVX2_KERNELS
+namespace {
+
+// Four doubles: one AVX register inside the AVX2 function (GCC and Clang
+// vector extensions); unaligned loads and stores go through v4u.
+typedef double v4 __attribute__((vector_size(32)));
+typedef double v4u __attribute__((vector_size(32), aligned(8), may_alias));
+
+constexpr long kRows = 8, kColumns = 4;  // a tile of C: 8 accumulators of 4
+
+// `pack`: A's rows in groups of 8, each group column after column (8
+// consecutive doubles per column), zero-padded. Rows 4q..4q+3 of A are half a
+// group, so the right-hand factor reads the same buffer.
+__attribute__((target("avx2,fma"))) void tiles_avx2(const double* pack, long row_groups, long column_groups, long w,
+                                                   double* C, long ldc) {
+  for (long cg = 0; cg < column_groups; ++cg) {
+    const double* b = pack + (cg / 2) * kRows * w + (cg % 2) * kColumns;
+    double* c_tile = C + cg * kColumns * ldc;
+    for (long rg = cg / 2; rg < row_groups; ++rg) {  // tiles wholly above the diagonal are skipped
+      const double* a = pack + rg * kRows * w;
+      v4 c0a = {0, 0, 0, 0}, c0b = c0a, c1a = c0a, c1b = c0a, c2a = c0a, c2b = c0a, c3a = c0a, c3b = c0a;
+      for (long t = 0; t < w; ++t) {
+        const v4 lo = *reinterpret_cast<const v4u*>(a + kRows * t);
+        const v4 hi = *reinterpret_cast<const v4u*>(a + kRows * t + 4);
+        const double* bt = b + kRows * t;
+        v4 s = {bt[0], bt[0], bt[0], bt[0]};
+        c0a += lo * s, c0b += hi * s;
+        s = v4{bt[1], bt[1], bt[1], bt[1]};
+        c1a += lo * s, c1b += hi * s;
+        s = v4{bt[2], bt[2], bt[2], bt[2]};
+        c2a += lo * s, c2b += hi * s;
+        s = v4{bt[3], bt[3], bt[3], bt[3]};
+        c3a += lo * s, c3b += hi * s;
+      }
+      double* c = c_tile + rg * kRows;
+      *reinterpret_cast<v4u*>(c) = c0a, *reinterpret_cast<v4u*>(c + 4) = c0b;
+      c += ldc;
+      *reinterpret_cast<v4u*>(c) = c1a, *reinterpret_cast<v4u*>(c + 4) = c1b;
+      c += ldc;
+      *reinterpret_cast<v4u*>(c) = c2a, *reinterpret_cast<v4u*>(c + 4) = c2b;
+      c += ldc;
+      *reinterpret_cast<v4u*>(c) = c3a, *reinterpret_cast<v4u*>(c + 4) = c3b;
+    }
+  }
+}
+
+// Eight rows of B at a time, column after column: row r of the result is
+// b_c = (b_c - sum_{t<c} b_t L(c, t)) / L(c, c), with that group's solved
+// columns still in the first-level cache. Lt: L transposed (row c of L
+// contiguous), leading dimension w.
+__attribute__((target("avx2,fma"))) void solve_avx2(double* B, long ldb, long rows, const double* Lt, long w) {
+  long r = 0;
+  for (; r + kRows <= rows; r += kRows) {
+    long c = 0;
+    for (; c + kColumns <= w; c += kColumns) {  // four columns share each load of a solved column
+      v4 lo[kColumns], hi[kColumns];
+      for (long j = 0; j < kColumns; ++j) {
+        lo[j] = *reinterpret_cast<const v4u*>(B + r + (c + j) * ldb);
+        hi[j] = *reinterpret_cast<const v4u*>(B + r + (c + j) * ldb + 4);
+      }
+      for (long t = 0; t < c; ++t) {
+        const v4 blo = *reinterpret_cast<const v4u*>(B + r + t * ldb);
+        const v4 bhi = *reinterpret_cast<const v4u*>(B + r + t * ldb + 4);
+        for (long j = 0; j < kColumns; ++j) {
+          const double l = Lt[t + (c + j) * w];
+          const v4 s = {l, l, l, l};
+          lo[j] -= blo * s, hi[j] -= bhi * s;
+        }
+      }
+      for (long j = 0; j < kColumns; ++j) {
+        for (long i = 0; i < j; ++i) {
+          const double l = Lt[c + i + (c + j) * w];
+          const v4 s = {l, l, l, l};
+          lo[j] -= lo[i] * s, hi[j] -= hi[i] * s;
+        }
+        const double d = Lt[c + j + (c + j) * w];
+        const v4 s = {d, d, d, d};
+        lo[j] /= s, hi[j] /= s;
+        *reinterpret_cast<v4u*>(B + r + (c + j) * ldb) = lo[j];
+        *reinterpret_cast<v4u*>(B + r + (c + j) * ldb + 4) = hi[j];
+      }
+    }
+    for (; c < w; ++c) {
+      double* bc = B + r + c * ldb;
+      v4 lo = *reinterpret_cast<const v4u*>(bc), hi = *reinterpret_cast<const v4u*>(bc + 4);
+      for (long t = 0; t < c; ++t) {
+        const double* bt = B + r + t * ldb;
+        const double l = Lt[t + c * w];
+        const v4 s = {l, l, l, l};
+        lo -= *reinterpret_cast<const v4u*>(bt) * s, hi -= *reinterpret_cast<const v4u*>(bt + 4) * s;
+      }
+      const double d = Lt[c + c * w];
+      const v4 s = {d, d, d, d};
+      *reinterpret_cast<v4u*>(bc) = lo / s, *reinterpret_cast<v4u*>(bc + 4) = hi / s;
+    }
+  }
+  for (; r < rows; ++r)
+    for (long c = 0; c < w; ++c) {
+      double b = B[r + c * ldb];
+      for (long t = 0; t < c; ++t) b -= B[r + t * ldb] * Lt[t + c * w];
+      B[r + c * ldb] = b / Lt[c + c * w];
+    }
+}
+
+}  // namespace
+
+bool have_avx2_fma() {
+  static const bool yes = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return yes;
+}
+
+long product_rows(long m) { return (m + kRows - 1) / kRows * kRows; }
+long product_columns(long k) { return (k + kColumns - 1) / kColumns * kColumns; }
+
+void lower_product_avx2(const double* A, long lda, long m, long k, long w, double* C, std::vector<double>& pack) {
+  const long row_groups = product_rows(m) / kRows, column_groups = product_columns(k) / kColumns;
+  pack.resize(static_cast<std::size_t>(row_groups * kRows * w));
+  double* p = pack.data();
+  for (long rg = 0; rg < row_groups; ++rg)
+    for (long t = 0; t < w; ++t)
+      for (long i = 0; i < kRows; ++i, ++p) {
+        const long r = rg * kRows + i;
+        *p = r < m ? A[r + t * lda] : 0.0;
+      }
+  tiles_avx2(pack.data(), row_groups, column_groups, w, C, row_groups * kRows);
+}
+
+void solve_transposed_avx2(double* B, long ldb, long rows, const double* L, long ldl, long w,
+                           std::vector<double>& pack) {
+  pack.resize(static_cast<std::size_t>(w * w));
+  for (long c = 0; c < w; ++c)
+    for (long t = 0; t <= c; ++t) pack[t + c * w] = L[c + t * ldl];
+  solve_avx2(B, ldb, rows, pack.data(), w);
+}
+
+#else  // no AVX2 kernels on this platform
+
+bool have_avx2_fma() { return false; }
+long product_rows(long m) { return m; }
+long product_columns(long k) { return k; }
+void lower_product_avx2(const double*, long, long, long, long, double*, std::vector<double>&) {}
+void solve_transposed_avx2(double*, long, long, const double*, long, long, std::vector<double>&) {}
+
+#endif
+
+}  // namespace arap

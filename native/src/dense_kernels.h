@@ -1,0 +1,31 @@
+// Dense kernels of the supernodal Cholesky (the product of a column block of L
+// with the transpose of its first rows; the triangular solve of the rows below
+// a diagonal block), written for AVX2 + FMA and chosen at run time, so that a
+// build for any x86-64 still uses the wider registers where the processor has
+// them. Elsewhere (other processors, other architectures) the caller uses
+// Eigen's products.
+#pragma once
+
+#include <vector>
+
+namespace arap {
+
+// True when this processor runs the AVX2 + FMA kernel below.
+bool have_avx2_fma();
+
+// C(r, c) = sum_t A(r, t) A(c, t) for c < k <= m and r >= c (tiles across
+// the diagonal also get some r < c). A: m by w, column-major with leading
+// dimension lda. C: column-major, leading dimension product_rows(m), at least
+// product_columns(k) columns. `pack` is resized as needed. Only call when
+// have_avx2_fma().
+long product_rows(long m);
+long product_columns(long k);
+void lower_product_avx2(const double* A, long lda, long m, long k, long w, double* C, std::vector<double>& pack);
+
+// B = B L^-T in place: B rows by w (leading dimension ldb), L w by w lower
+// triangular (leading dimension ldl). `pack` is resized as needed. Only call
+// when have_avx2_fma().
+void solve_transposed_avx2(double* B, long ldb, long rows, const double* L, long ldl, long w,
+                           std::vector<double>& pack);
+
+}  // namespace arap

@@ -1,0 +1,301 @@
+#include "supernodal_cholesky.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+
+#include <Eigen/Dense>
+
+#include "dense_kernels.h"
+
+namespace arap {
+
+namespace {
+
+using Sparse = Eigen::SparseMatrix<double>;
+using Block = Eigen::Map<Eigen::MatrixXd, 0, Eigen::OuterStride<>>;
+using ConstBlock = Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>>;
+
+// End of the part holding each column.
+std::vector<int> part_ends(const std::vector<int>& bounds, int n) {
+  std::vector<int> end(n, n);
+  for (size_t k = 0; k + 1 < bounds.size(); ++k)
+    for (int j = bounds[k]; j < bounds[k + 1]; ++j) end[j] = bounds[k + 1];
+  return end;
+}
+
+// Number of entries in each column of L, the diagonal included, without
+// forming L: Gilbert, Ng and Peyton's method ("An efficient algorithm to
+// compute row and column counts for sparse Cholesky factorization", 1994).
+// Row i of L is the subtree of the elimination tree spanned by the columns j
+// with A(i, j) != 0, j < i; a column's count is the number of row subtrees
+// holding it, summed over the tree from differences at each subtree's leaves
+// and least common ancestors. Needs a postordered tree.
+std::vector<int> column_counts(const Sparse& A, const std::vector<int>& parent) {
+  const int n = static_cast<int>(A.rows());
+  std::vector<int> size(n, 1), first(n), delta(n), max_first(n, -1), previous_leaf(n, -1), ancestor(n);
+  for (int j = 0; j < n; ++j)
+    if (parent[j] >= 0) size[parent[j]] += size[j];
+  for (int j = 0; j < n; ++j) {
+    first[j] = j - size[j] + 1;  // the first descendant, in postorder
+    delta[j] = size[j] == 1;     // a leaf of the tree
+    ancestor[j] = j;
+  }
+  for (int j = 0; j < n; ++j) {
+    if (parent[j] >= 0) --delta[parent[j]];
+    for (Sparse::InnerIterator it(A, j); it; ++it) {
+      const int i = static_cast<int>(it.row());
+      // j is a leaf of row i's subtree unless an earlier leaf descends from j.
+      if (i <= j || first[j] <= max_first[i]) continue;
+      max_first[i] = first[j];
+      const int previous = previous_leaf[i];
+      previous_leaf[i] = j;
+      ++delta[j];
+      if (previous < 0) continue;
+      int lca = previous;  // least common ancestor of the two leaves
+      while (lca != ancestor[lca]) lca = ancestor[lca];
+      for (int k = previous; k != lca;) {
+        const int next = ancestor[k];
+        ancestor[k] = lca;
+        k = next;
+      }
+      --delta[lca];
+    }
+    if (parent[j] >= 0) ancestor[j] = parent[j];
+  }
+  for (int j = 0; j < n; ++j)
+    if (parent[j] >= 0) delta[parent[j]] += delta[j];
+  return delta;
+}
+
+// First column of each supernode (and n last). Fundamental supernodes first:
+// column j + 1 joins column j's when it is j's parent and L's column j is
+// column j + 1 plus the diagonal. Then a supernode is merged into its parent,
+// from the root down, when the parent follows it and the merge adds few zeros
+// (the thresholds of CHOLMOD's relaxed amalgamation: always up to 4 columns,
+// up to 80% zeros up to 16 columns, 10% up to 48, then 5%).
+std::vector<int> supernodes(const std::vector<int>& parent, const std::vector<int>& count,
+                            const std::vector<int>& part_end) {
+  const int n = static_cast<int>(parent.size());
+  std::vector<int> start;
+  for (int j = 0; j < n; ++j)
+    if (j == 0 || parent[j - 1] != j || count[j - 1] != count[j] + 1 || part_end[j - 1] != part_end[j])
+      start.push_back(j);
+  const int m = static_cast<int>(start.size());
+  start.push_back(n);
+  std::vector<int> super_of(n);
+  for (int s = 0; s < m; ++s)
+    for (int j = start[s]; j < start[s + 1]; ++j) super_of[j] = s;
+  std::vector<long> cols(m), rows(m), zeros(m, 0);
+  std::vector<char> joins_previous(m, 0);
+  for (int s = 0; s < m; ++s) cols[s] = start[s + 1] - start[s], rows[s] = count[start[s]];
+  for (int s = m - 2; s >= 0; --s) {
+    const int last = start[s + 1] - 1;
+    if (parent[last] < 0 || super_of[parent[last]] != s + 1 || part_end[last] != part_end[last + 1]) continue;
+    const long c = cols[s] + cols[s + 1], r = cols[s] + rows[s + 1];
+    const long z = zeros[s] + zeros[s + 1] + cols[s] * (r - rows[s]);
+    const double fraction = static_cast<double>(z) / static_cast<double>(c * (c + 1) / 2 + c * (r - c));
+    if (!(c <= 4 || (c <= 16 && fraction < 0.8) || (c <= 48 && fraction < 0.1) || fraction < 0.05)) continue;
+    joins_previous[s + 1] = 1;
+    cols[s] = c, rows[s] = r, zeros[s] = z;
+  }
+  std::vector<int> merged;
+  for (int s = 0; s <= m; ++s)
+    if (s == m || !joins_previous[s]) merged.push_back(start[s]);
+  return merged;
+}
+
+}  // namespace
+
+std::vector<int> elimination_tree(const Sparse& A, const std::vector<int>& order) {
+  const int n = static_cast<int>(A.rows());
+  std::vector<int> parent(n, -1), ancestor(n, -1), position;
+  if (!order.empty()) {
+    position.resize(n);
+    for (int k = 0; k < n; ++k) position[order[k]] = k;
+  }
+  // Liu's algorithm: row k's entries left of the diagonal attach, through
+  // path-compressed ancestors, the roots of their subtrees to k.
+  for (int k = 0; k < n; ++k)
+    for (Sparse::InnerIterator it(A, order.empty() ? k : order[k]); it; ++it)
+      for (int i = order.empty() ? static_cast<int>(it.row()) : position[it.row()]; i >= 0 && i < k;) {
+        const int next = ancestor[i];
+        ancestor[i] = k;
+        if (next < 0) parent[i] = k;
+        i = next;
+      }
+  return parent;
+}
+
+std::vector<int> postorder_within_parts(const std::vector<int>& parent, const std::vector<int>& bounds) {
+  const int n = static_cast<int>(parent.size());
+  const std::vector<int> end = part_ends(bounds, n);
+  // Children lists in increasing order; a column whose parent lies in a later part is a root here.
+  std::vector<int> head(n, -1), next(n, -1), order, stack;
+  order.reserve(n);
+  for (int j = n - 1; j >= 0; --j)
+    if (parent[j] >= 0 && parent[j] < end[j]) next[j] = head[parent[j]], head[parent[j]] = j;
+  for (int root = 0; root < n; ++root) {
+    if (parent[root] >= 0 && parent[root] < end[root]) continue;
+    stack.push_back(root);
+    while (!stack.empty()) {
+      const int p = stack.back();
+      const int child = head[p];
+      if (child < 0) {
+        stack.pop_back();
+        order.push_back(p);
+      } else {
+        head[p] = next[child];
+        stack.push_back(child);
+      }
+    }
+  }
+  return order;
+}
+
+bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const std::vector<int>& bounds,
+                         SparseFactor& L) {
+  L.clear();
+  const int n = static_cast<int>(A.rows());
+  std::vector<int> first = supernodes(parent, column_counts(A, parent), part_ends(bounds, n));
+  const int m = static_cast<int>(first.size()) - 1;
+  std::vector<int> super_of(n);
+  for (int s = 0; s < m; ++s)
+    for (int j = first[s]; j < first[s + 1]; ++j) super_of[j] = s;
+
+  // Row structure of each supernode: its own columns, then (sorted) the rows
+  // below them of A's columns and of its children's structures.
+  std::vector<int> child_head(m, -1), child_next(m, -1);
+  for (int s = m - 1; s >= 0; --s) {
+    const int p = parent[first[s + 1] - 1];
+    if (p >= 0) child_next[s] = child_head[super_of[p]], child_head[super_of[p]] = s;
+  }
+  std::vector<long> row_start(m + 1, 0), value_start(m + 1, 0);
+  std::vector<int> rows, mark(n, -1);
+  rows.reserve(2 * static_cast<size_t>(A.nonZeros()));
+  for (int s = 0; s < m; ++s) {
+    const int begin = first[s], end = first[s + 1];
+    for (int j = begin; j < end; ++j) rows.push_back(j);
+    const size_t below = rows.size();
+    auto add = [&](int i) {
+      if (i >= end && mark[i] != s) mark[i] = s, rows.push_back(i);
+    };
+    for (int j = begin; j < end; ++j)
+      for (Sparse::InnerIterator it(A, j); it; ++it) add(static_cast<int>(it.row()));
+    for (int c = child_head[s]; c >= 0; c = child_next[c])
+      for (long k = row_start[c] + (first[c + 1] - first[c]); k < row_start[c + 1]; ++k) add(rows[k]);
+    std::sort(rows.begin() + static_cast<long>(below), rows.end());
+    row_start[s + 1] = static_cast<long>(rows.size());
+    value_start[s + 1] = value_start[s] + (row_start[s + 1] - row_start[s]) * (end - begin);
+  }
+
+  // Left-looking numeric factorization. Each factored supernode d waits in
+  // the list of the next supernode its rows reach (cursor[d]: its first row
+  // not yet used); when that supernode comes, d's update is
+  // C = L_d(rows from the cursor, :) L_d(rows inside the target, :)^T,
+  // subtracted through `map` (row -> position in the target's block).
+  std::vector<double> value(static_cast<size_t>(value_start[m]), 0.0), update, pack;
+  const bool avx2 = have_avx2_fma() && !std::getenv("ARAP_NO_AVX2");
+  std::vector<int> map(n), waiting_head(m, -1), waiting_next(m, -1), relative;
+  std::vector<long> cursor(m);
+  for (int s = 0; s < m; ++s) {
+    const int begin = first[s], end = first[s + 1], width = end - begin;
+    const int* row = rows.data() + row_start[s];
+    const long height = row_start[s + 1] - row_start[s];
+    double* block = value.data() + value_start[s];
+    for (long k = 0; k < height; ++k) map[row[k]] = static_cast<int>(k);
+    for (int j = begin; j < end; ++j)
+      for (Sparse::InnerIterator it(A, j); it; ++it)
+        if (it.row() >= j) block[(j - begin) * height + map[it.row()]] = it.value();
+    for (int d = waiting_head[s]; d >= 0;) {
+      const int next_d = waiting_next[d];
+      const int* drow = rows.data() + row_start[d];
+      const long dheight = row_start[d + 1] - row_start[d];
+      const long p1 = cursor[d];
+      long p2 = p1;
+      while (p2 < dheight && drow[p2] < end) ++p2;
+      const long tall = dheight - p1, wide = p2 - p1;
+      const ConstBlock Ld(value.data() + value_start[d], dheight, first[d + 1] - first[d], Eigen::OuterStride<>(dheight));
+      // C, column-major with leading dimension ldc: only r >= c is read.
+      long ldc = tall;
+      if (avx2) {
+        ldc = product_rows(tall);
+        if (update.size() < static_cast<size_t>(ldc * product_columns(wide))) update.resize(ldc * product_columns(wide));
+        lower_product_avx2(Ld.data() + p1, dheight, tall, wide, Ld.cols(), update.data(), pack);
+      } else {
+        if (update.size() < static_cast<size_t>(tall * wide)) update.resize(tall * wide);
+        Eigen::Map<Eigen::MatrixXd> C(update.data(), tall, wide);
+        C.noalias() = Ld.middleRows(p1, tall) * Ld.middleRows(p1, wide).transpose();
+      }
+      relative.resize(tall);
+      for (long r = 0; r < tall; ++r) relative[r] = map[drow[p1 + r]];
+      const bool contiguous = relative[tall - 1] - relative[0] == tall - 1;  // the usual case: no gather
+      for (long c = 0; c < wide; ++c) {
+        double* column = block + (drow[p1 + c] - begin) * height;
+        const double* u = update.data() + c * ldc;
+        if (contiguous) {
+          double* target = column + relative[0];
+          for (long r = c; r < tall; ++r) target[r] -= u[r];
+        } else {
+          for (long r = c; r < tall; ++r) column[relative[r]] -= u[r];
+        }
+      }
+      cursor[d] = p2;
+      if (p2 < dheight) {
+        const int t = super_of[drow[p2]];
+        waiting_next[d] = waiting_head[t], waiting_head[t] = d;
+      }
+      d = next_d;
+    }
+    // L11 L11^T = A11 (dense Cholesky), then L21 = A21 L11^-T.
+    Block diagonal(block, width, width, Eigen::OuterStride<>(height));
+    Eigen::Ref<Eigen::MatrixXd> diagonal_ref(diagonal);
+    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(diagonal_ref);
+    if (llt.info() != Eigen::Success) return L.clear(), false;
+    if (height > width) {
+      if (avx2) {
+        solve_transposed_avx2(block + width, height, height - width, block, height, width, pack);
+      } else {
+        Block below(block + width, height - width, width, Eigen::OuterStride<>(height));
+        diagonal.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(below);
+      }
+      cursor[s] = width;
+      const int t = super_of[row[width]];
+      waiting_next[s] = waiting_head[t], waiting_head[t] = s;
+    }
+  }
+
+  // Compressed columns without the zeros amalgamation added (an entry outside
+  // L's structure is a sum of products each with an exact zero: exactly zero),
+  // written over the blocks' own storage: an entry never moves forward.
+  L.outer.assign(n + 1, 0);
+  long stored = 0;
+  for (int s = 0; s < m; ++s) {
+    const long width = first[s + 1] - first[s], height = row_start[s + 1] - row_start[s];
+    stored += width * height - width * (width - 1) / 2;
+  }
+  L.inner.resize(static_cast<size_t>(stored));  // an upper bound, cut below
+  int* inner = L.inner.data();
+  long p = 0;
+  for (int s = 0; s < m; ++s) {
+    const int* row = rows.data() + row_start[s];
+    const long height = row_start[s + 1] - row_start[s];
+    for (int c = 0; c < first[s + 1] - first[s]; ++c) {
+      const double* column = value.data() + value_start[s] + c * height;
+      if (!(column[c] > 0) || !std::isfinite(column[c])) return L.clear(), false;
+      inner[p] = row[c], value[p++] = column[c];
+      for (long r = c + 1; r < height; ++r) {
+        const double v = column[r];
+        inner[p] = row[r], value[p] = v;  // kept only if nonzero: p moves on
+        p += v != 0;
+      }
+      L.outer[first[s] + c + 1] = p;
+    }
+  }
+  L.inner.resize(static_cast<size_t>(p));
+  value.resize(static_cast<size_t>(p));
+  L.value = std::move(value);
+  return true;
+}
+
+}  // namespace arap

@@ -1,0 +1,209 @@
+// The bind's sparse Cholesky (block_cholesky.h, supernodal_cholesky.h): its
+// solve against Eigen's on procedural matrices, small (one part) and split
+// (two halves and a separator, >= 20k rows), one thread against two, and a
+// clean refusal of matrices that are not positive definite.
+#include <gtest/gtest.h>
+
+#include <Eigen/SparseCholesky>
+#include <cstdlib>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "arap/procedural.h"
+#include "block_cholesky.h"
+#include "dense_kernels.h"
+#include "supernodal_cholesky.h"
+
+namespace {
+
+using Sparse = Eigen::SparseMatrix<double>;
+
+// A weighted graph Laplacian of a procedural mesh's edges (random positive
+// weights) plus `shift` on the diagonal, both triangles stored: SPD for shift > 0.
+Sparse mesh_matrix(const arap::procedural::TriMesh& mesh, double shift, unsigned seed) {
+  const int n = static_cast<int>(mesh.vertices.rows());
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> weight(0.1, 2.0);
+  std::vector<Eigen::Triplet<double>> t;
+  for (Eigen::Index f = 0; f < mesh.triangles.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = mesh.triangles(f, k), b = mesh.triangles(f, (k + 1) % 3);
+      if (a > b) continue;  // each edge once (closed mesh: the other triangle has b -> a)
+      const double w = weight(rng);
+      t.emplace_back(a, b, -w), t.emplace_back(b, a, -w), t.emplace_back(a, a, w), t.emplace_back(b, b, w);
+    }
+  for (int i = 0; i < n; ++i) t.emplace_back(i, i, shift);
+  Sparse A(n, n);
+  A.setFromTriplets(t.begin(), t.end());
+  return A;
+}
+
+Eigen::MatrixXd random_rhs(Eigen::Index n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Eigen::MatrixXd b(n, 3);
+  for (Eigen::Index i = 0; i < b.size(); ++i) b.data()[i] = u(rng);
+  return b;
+}
+
+// x = A^-1 b through BlockCholesky::solve_in_place (x, y, z per row).
+Eigen::MatrixXd solve(const arap::BlockCholesky& chol, const Eigen::MatrixXd& b, int threads) {
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> x = b;
+  std::vector<double> work;
+  chol.solve_in_place(x.data(), work, threads);
+  return x;
+}
+
+void expect_solves_like_eigen(const Sparse& A) {
+  const Eigen::MatrixXd b = random_rhs(A.rows(), 7);
+  Eigen::SimplicialLDLT<Sparse> reference(A);
+  ASSERT_EQ(reference.info(), Eigen::Success);
+  const Eigen::MatrixXd expected = reference.solve(b);
+  arap::BlockCholesky chol;
+  ASSERT_TRUE(chol.factor(A));
+  const Eigen::MatrixXd x = solve(chol, b, 1);
+  EXPECT_LT((x - expected).norm(), 1e-10 * expected.norm());
+  EXPECT_LT((A * x - b).norm(), 1e-10 * b.norm());
+  // The same factor, the same solution bit for bit on two threads.
+  EXPECT_EQ(solve(chol, b, 2), x);
+  // Eigen's simplicial factorization of the same ordered matrix: the same solution.
+  arap::BlockCholesky simplicial;
+  ASSERT_TRUE(simplicial.factor(A, arap::BlockCholesky::Kernel::Simplicial));
+  EXPECT_LT((solve(simplicial, b, 1) - x).norm(), 1e-10 * x.norm());
+}
+
+TEST(BlockCholesky, SmallMeshMatrixSolvesLikeEigen) {
+  const Sparse A = mesh_matrix(arap::procedural::make_sphere(3000), 1e-3, 1);
+  expect_solves_like_eigen(A);
+}
+
+TEST(BlockCholesky, SplitMeshMatrixSolvesLikeEigen) {
+  const Sparse A = mesh_matrix(arap::procedural::make_bar_with_vertices(24000), 1e-4, 2);
+  ASSERT_GE(A.rows(), 20000);
+  arap::BlockCholesky chol;
+  ASSERT_TRUE(chol.factor(A));
+  EXPECT_GT(chol.first_half(), 0);  // really split in two halves and a separator
+  EXPECT_GT(chol.second_half(), 0);
+  EXPECT_LT(chol.first_half() + chol.second_half(), A.rows());
+  expect_solves_like_eigen(A);
+}
+
+// A dense block (a clique of 300 rows) gives wide supernodes: the dense
+// kernels' tiles, edges and remainders all run.
+TEST(BlockCholesky, DenseBlockSolvesLikeEigen) {
+  const int n = 700, clique = 300;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<Eigen::Triplet<double>> t;
+  for (int i = 0; i < n; ++i) t.emplace_back(i, i, i < clique ? clique : 4.0);
+  auto couple = [&](int a, int b) {
+    const double w = 0.9 * u(rng);
+    t.emplace_back(a, b, w), t.emplace_back(b, a, w);
+  };
+  for (int i = 0; i < clique; ++i)
+    for (int j = i + 1; j < clique; ++j) couple(i, j);
+  for (int i = clique; i + 1 < n; ++i) couple(i, i + 1), couple(i, (i * 7) % clique);
+  Sparse A(n, n);
+  A.setFromTriplets(t.begin(), t.end());
+  expect_solves_like_eigen(A);
+}
+
+TEST(BlockCholesky, RefusesMatricesThatAreNotPositiveDefinite) {
+  arap::BlockCholesky chol;
+  // A graph Laplacian shifted down: indefinite, yet every diagonal entry positive.
+  Sparse indefinite = mesh_matrix(arap::procedural::make_sphere(3000), -0.05, 4);
+  for (int k = 0; k < indefinite.outerSize(); ++k) ASSERT_GT(indefinite.coeff(k, k), 0);
+  EXPECT_FALSE(chol.factor(indefinite));
+  // The same, large enough to be split.
+  EXPECT_FALSE(chol.factor(mesh_matrix(arap::procedural::make_bar_with_vertices(24000), -0.05, 5)));
+  // One negative diagonal entry of an otherwise SPD matrix.
+  Sparse negative = mesh_matrix(arap::procedural::make_sphere(3000), 1e-3, 6);
+  negative.coeffRef(1234, 1234) = -1;
+  EXPECT_FALSE(chol.factor(negative));
+  // A NaN.
+  Sparse nan = mesh_matrix(arap::procedural::make_sphere(3000), 1e-3, 7);
+  nan.coeffRef(10, 10) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(chol.factor(nan));
+  // After all that, an SPD matrix factors again.
+  EXPECT_TRUE(chol.factor(mesh_matrix(arap::procedural::make_sphere(3000), 1e-3, 8)));
+}
+
+// Every vertex constrained leaves an empty free block: it factors, and solves nothing.
+TEST(BlockCholesky, EmptyMatrix) {
+  arap::BlockCholesky chol;
+  ASSERT_TRUE(chol.factor(Sparse(0, 0)));
+  EXPECT_EQ(chol.nonzeros(), 0);
+  std::vector<double> x, work;
+  chol.solve_in_place(x.data(), work, 2);
+}
+
+// Merged supernodes store explicit zeros; the factor keeps none of them: it has
+// the entries of Eigen's simplicial factor of the same ordered matrix, no more.
+TEST(BlockCholesky, MergedSupernodesLeaveNoZeros) {
+  for (int vertices : {3000, 24000}) {
+    const Sparse A = mesh_matrix(arap::procedural::make_bar_with_vertices(vertices), 1e-3, 9);
+    arap::BlockCholesky simplicial, supernodal;
+    ASSERT_TRUE(simplicial.factor(A, arap::BlockCholesky::Kernel::Simplicial));
+    ASSERT_TRUE(supernodal.factor(A));
+    EXPECT_EQ(supernodal.nonzeros(), simplicial.nonzeros()) << vertices;
+  }
+}
+
+// The postorder keeps each part in place and puts children before parents.
+TEST(BlockCholesky, PostorderStaysWithinParts) {
+  const Sparse A = mesh_matrix(arap::procedural::make_sphere(2000), 1e-3, 10);
+  const int n = static_cast<int>(A.rows());
+  const std::vector<int> bounds = {0, n / 3, n / 2, n};
+  const std::vector<int> parent = arap::elimination_tree(A);
+  const std::vector<int> order = arap::postorder_within_parts(parent, bounds);
+  ASSERT_EQ(static_cast<int>(order.size()), n);
+  std::vector<int> position(n, -1);
+  for (int k = 0; k < n; ++k) position[order[k]] = k;
+  for (int j = 0; j < n; ++j) {
+    ASSERT_GE(position[j], 0);
+    const int part = j < bounds[1] ? 0 : j < bounds[2] ? 1 : 2;
+    EXPECT_GE(position[j], bounds[part]);
+    EXPECT_LT(position[j], bounds[part + 1]);
+    if (parent[j] >= 0 && parent[j] < bounds[part + 1]) EXPECT_LT(position[j], position[parent[j]]);
+  }
+}
+
+// The AVX2 kernel against a plain product, on sizes that hit every remainder.
+TEST(DenseKernels, LowerProductAndTriangularSolveMatchPlainLoops) {
+  if (!arap::have_avx2_fma()) GTEST_SKIP() << "no AVX2 + FMA on this processor: the portable path runs instead";
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<double> pack;
+  for (long m : {1L, 5L, 8L, 13L, 37L})
+    for (long k = 1; k <= m; k += 3)
+      for (long w : {1L, 4L, 7L}) {
+        const long lda = m + 2;
+        std::vector<double> A(lda * w);
+        for (double& v : A) v = u(rng);
+        std::vector<double> C(arap::product_rows(m) * arap::product_columns(k), NAN);
+        arap::lower_product_avx2(A.data(), lda, m, k, w, C.data(), pack);
+        for (long c = 0; c < k; ++c)
+          for (long r = c; r < m; ++r) {
+            double expected = 0;
+            for (long t = 0; t < w; ++t) expected += A[r + t * lda] * A[c + t * lda];
+            EXPECT_NEAR(C[r + c * arap::product_rows(m)], expected, 1e-13) << m << " " << k << " " << w;
+          }
+        // B L^-T with L lower triangular, well conditioned.
+        Eigen::MatrixXd L = Eigen::MatrixXd::Random(w, w).triangularView<Eigen::Lower>();
+        L.diagonal().array() = 2 + L.diagonal().array().abs();
+        Eigen::MatrixXd B = Eigen::MatrixXd::Random(m, w), X = B;
+        arap::solve_transposed_avx2(X.data(), m, m, L.data(), w, w, pack);
+        EXPECT_LT((X * L.transpose() - B).norm(), 1e-12 * B.norm()) << m << " " << w;
+      }
+}
+
+}  // namespace
+
+// The portable path (Eigen's dense products, what a processor without AVX2
+// runs), chosen here through the ARAP_NO_AVX2 switch.
+TEST(BlockCholesky, PortablePathSolvesLikeEigen) {
+  setenv("ARAP_NO_AVX2", "1", 1);
+  expect_solves_like_eigen(mesh_matrix(arap::procedural::make_bar_with_vertices(24000), 1e-4, 12));
+  unsetenv("ARAP_NO_AVX2");
+}
