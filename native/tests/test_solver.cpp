@@ -176,6 +176,24 @@ TEST(QuasiNewton, AWarmSolveWithTheSameTargetsResumesWhereTheLastStopped) {
   EXPECT_NE(next.initial_energy, rest.energy.back());
 }
 
+TEST(LocalGlobal, AWarmSolveWithTheSameTargetsContinuesTheIteration) {
+  // The time-to-band benchmark resumes runs this way: 12 plain iterations, or 5 and then 7 warm, alike.
+  const BentTube t;
+  const arap::Options o = options_with(arap::InitialGuess::Naive, 12, 0, arap::Method::LocalGlobal);
+  arap::Solver once, split;
+  once.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+  split.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+  const auto whole = once.solve(t.targets);
+  split.options().max_iterations = 5;
+  split.solve(t.targets);
+  split.options().init = arap::InitialGuess::WarmStart;
+  split.options().max_iterations = 7;
+  const auto rest = split.solve(t.targets);
+  ASSERT_EQ(rest.iterations, 7);
+  EXPECT_EQ(split.positions(), once.positions());
+  for (int k = 0; k < 7; ++k) EXPECT_EQ(rest.energy[k], whole.energy[5 + k]) << k;
+}
+
 TEST(Solver, TimeBudgetStopsAfterTheIterationThatSpendsIt) {
   const BentTube t;
   for (auto method : kMethods) {
