@@ -18,7 +18,7 @@ namespace {
 
 // kappa and beta of infill.h: measured on the shared scenarios (README, "Keeping the volume").
 constexpr double kLatticeStiffness = 10;
-constexpr double kCoupling = 2;
+constexpr double kCoupling = 4;
 // More lattice cubes than this (over all components) is refused: lower the resolution.
 constexpr long kMaxCells = 2000000;
 
@@ -192,10 +192,10 @@ InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<
           }
       ++out.cells;
     }
-    // Each vertex to the 4 corners of the Kuhn tetrahedron of its cube that
-    // holds it (the cube split along its main diagonal, by the order of the
-    // local coordinates), with its barycentric weights. A vertex whose own
-    // cube is not in the lattice uses the nearest lattice cube next to it,
+    // Each vertex to one corner of its cube: the corner of largest barycentric
+    // weight in the Kuhn tetrahedron that holds it (the cube split along its
+    // main diagonal, by the order of the local coordinates). A vertex whose
+    // own cube is not in the lattice uses the nearest lattice cube next to it,
     // its coordinates clamped: its offset, rotated with the lattice, is kept.
     for (size_t index = 0; index < members.size(); ++index) {
       const int v = members[index];
@@ -218,12 +218,13 @@ InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<
       int axis[3] = {0, 1, 2};
       std::sort(axis, axis + 3, [&](int x, int y) { return t[x] > t[y]; });
       const double weights[4] = {1 - t[axis[0]], t[axis[0]] - t[axis[1]], t[axis[1]] - t[axis[2]], t[axis[2]]};
-      int corner = 0;
-      for (int k = 0; k < 4; ++k) {
-        if (k > 0) corner |= 1 << axis[k - 1];
-        if (weights[k] < 1e-9) continue;
-        out.edges.push_back({v, n + node(cube, corner), coupling * parts.vertex_area[v] * weights[k]});
+      int corner = 0, bound = 0;
+      double heaviest = weights[0];
+      for (int k = 1; k < 4; ++k) {
+        corner |= 1 << axis[k - 1];  // the Kuhn path 000 -> a -> ab -> abc
+        if (weights[k] > heaviest) heaviest = weights[k], bound = corner;
       }
+      out.edges.push_back({v, n + node(cube, bound), coupling * parts.vertex_area[v]});
     }
   }
   std::vector<std::pair<std::uint64_t, double>> sorted(lattice_edges.begin(), lattice_edges.end());

@@ -18,12 +18,16 @@
 //    kappa h / L / 4 to each of its edges: the graph Laplacian that
 //    discretises (kappa / L) integral |grad f|^2 dV, the same interior
 //    stiffness at every resolution (kappa = 10);
-//  - coupling edges from each surface vertex v to the 4 corners of the Kuhn
-//    tetrahedron of its cube that holds it, weight beta A_v / h^2 t_vk (A_v a
-//    third of the area of v's triangles, t_vk its barycentric weights,
-//    beta = 2). With the rotations fixed, v's coupling energy is least at
-//    sum_k t_vk (q_k + R (p_v - q_k)_rest) = sum_k t_vk q_k + R (p_v - sum_k t_vk q_k)_rest:
-//    the surface follows the lattice softly, and rotates with it.
+//  - one coupling edge from each surface vertex v to a corner k of its cube
+//    (the corner of largest barycentric weight in the Kuhn tetrahedron that
+//    holds v), weight beta A_v / h^2 (A_v a third of the area of v's
+//    triangles, beta = 4). With the rotations fixed, v's coupling energy is
+//    least at q_k + R (p_v - q_k)_rest: the surface follows the lattice
+//    softly, and rotates with it. One edge rather than the tetrahedron's four
+//    (each weighted by its barycentric weight, as first built): the coupling
+//    made most of the spokes of the local step and most of the factor's
+//    fill-in, and one edge, twice as stiff, kept as much volume, crossed
+//    itself less and cost less per iteration on most meshes (README, "Keeping the volume").
 // ARAP alone does not resist volume change more than any change of shape
 // (a material of Poisson's ratio 0): the lattice also carries a bulk term,
 // see infill_volume.h (gamma = kInfillBulk).
