@@ -19,6 +19,10 @@ struct BandSettings {
   double band = 1e-3;               // relative width of the band
   bool cgal = true;                 // also CGAL (when built in), up to cgal_max_vertices
   int cgal_max_vertices = 300000;
+  // local-global and quasi-newton runs not in the band within the budget go on
+  // (resumed by warm starts, which continue them exactly) up to this many
+  // iterations to find when they enter it; E* stays the budget's. 0: off.
+  int extend_iterations = 0;
 };
 
 // One mesh: every method's energies over the budget, E*, iterations and

@@ -50,3 +50,20 @@ file(READ ${WORK}/band/band.md table)
 if(NOT table MATCHES "\\| box-scenario \\| 12 \\| [0-9]+ / ")
   message(FATAL_ERROR "band.md has no row for box-scenario:\n${table}")
 endif()
+
+# --band-extend: with a budget too short for local-global, its run is resumed until it enters the band.
+execute_process(
+  COMMAND ${BENCH} --time-to-band --band-iterations 4 --band-extend 2000 --shapes bar --sizes 1000 --no-cgal
+          --output-dir ${WORK}/band_extend
+  RESULT_VARIABLE status)
+if(NOT status EQUAL 0)
+  message(FATAL_ERROR "arap-bench --time-to-band --band-extend exited with ${status}")
+endif()
+file(READ ${WORK}/band_extend/band.json doc)
+string(JSON plain GET "${doc}" meshes 0 runs 0)
+string(JSON method GET "${plain}" method)
+string(JSON extended ERROR_VARIABLE no_flag GET "${plain}" extended)
+string(JSON k GET "${plain}" iterations_to_band)
+if(NOT method STREQUAL "local-global" OR NOT extended OR k LESS_EQUAL 4)
+  message(FATAL_ERROR "local-global was not resumed into the band (extended: ${extended}, iterations: ${k}):\n${plain}")
+endif()

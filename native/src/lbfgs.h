@@ -10,6 +10,8 @@
 
 #include <Eigen/Core>
 
+#include "vector_halves.h"
+
 namespace arap {
 
 class LbfgsHistory {
@@ -28,8 +30,10 @@ class LbfgsHistory {
 
   // d = -H g, H the L-BFGS inverse Hessian on preconditioner(v) (in place:
   // v <- H0 v). Returns g.d, the directional derivative of half the energy.
+  // Long vectors are streamed in two halves, on two threads if `threads` > 1
+  // (the same result either way, see vector_halves.h).
   template <class Preconditioner>
-  double direction(const double* g, double* d, const Preconditioner& preconditioner);
+  double direction(const double* g, double* d, const Preconditioner& preconditioner, int threads = 1);
 
  private:
   int column(int k) const { return (newest_ - k + capacity_) % capacity_; }  // k = 0: newest
@@ -61,34 +65,39 @@ inline double axpy_dot(double* q, double a, const double* x, const double* z, Ei
 }  // namespace lbfgs_detail
 
 template <class Preconditioner>
-double LbfgsHistory::direction(const double* g, double* d, const Preconditioner& preconditioner) {
-  using lbfgs_detail::axpy_dot;
+double LbfgsHistory::direction(const double* g, double* d, const Preconditioner& preconditioner, int threads) {
   const Eigen::Index n = s_.rows();
   double* q = d;
+  // q <- q + a x and z.q, over the halves (z may be null).
+  auto update = [&](double a, const double* x, const double* z) {
+    return sum_over_halves(n, threads, [&](std::ptrdiff_t b, std::ptrdiff_t e) {
+      return lbfgs_detail::axpy_dot(q + b, a, x + b, z ? z + b : nullptr, e - b);
+    });
+  };
   // Each pass over q applies one pair's update and takes the dot product the
   // next pair needs, so q streams through memory once per pair, not twice.
   // First loop, newest pair to oldest: alpha_i = rho_i s_i.q, q <- q - alpha_i y_i.
-  std::copy(g, g + n, q);
-  double dot = stored_ > 0 ? axpy_dot(q, 0.0, g, s_.col(column(0)).data(), n) : 0.0;
+  for_each_half(n, threads, [&](std::ptrdiff_t b, std::ptrdiff_t e, int) { std::copy(g + b, g + e, q + b); });
+  double dot = stored_ > 0 ? update(0.0, g, s_.col(column(0)).data()) : 0.0;
   for (int k = 0; k < stored_; ++k) {
     const int c = column(k);
     const double a = alpha_[c] = rho_[c] * dot;
     const double* s_next = k + 1 < stored_ ? s_.col(column(k + 1)).data() : nullptr;
-    dot = axpy_dot(q, -a, y_.col(c).data(), s_next, n);
+    dot = update(-a, y_.col(c).data(), s_next);
   }
   preconditioner(q);  // r = H0 q
   // Second loop, oldest to newest: beta_i = rho_i y_i.r, r <- r + (alpha_i - beta_i) s_i.
-  dot = stored_ > 0 ? axpy_dot(q, 0.0, g, y_.col(column(stored_ - 1)).data(), n) : 0.0;
+  dot = stored_ > 0 ? update(0.0, g, y_.col(column(stored_ - 1)).data()) : 0.0;
   for (int k = stored_ - 1; k >= 0; --k) {
     const int c = column(k);
     const double* y_next = k > 0 ? y_.col(column(k - 1)).data() : nullptr;
-    dot = axpy_dot(q, alpha_[c] - rho_[c] * dot, s_.col(c).data(), y_next, n);
+    dot = update(alpha_[c] - rho_[c] * dot, s_.col(c).data(), y_next);
   }
   // d = -r, and g.d.
-  double slope = 0;
-  for (Eigen::Index i = 0; i < n; ++i) q[i] = -q[i];
-  slope = axpy_dot(q, 0.0, g, g, n);
-  return slope;
+  for_each_half(n, threads, [&](std::ptrdiff_t b, std::ptrdiff_t e, int) {
+    for (std::ptrdiff_t i = b; i < e; ++i) q[i] = -q[i];
+  });
+  return update(0.0, g, g);
 }
 
 }  // namespace arap

@@ -15,6 +15,7 @@
 #include "lbfgs.h"
 #include "local_step.h"
 #include "unit_scale.h"
+#include "vector_halves.h"
 #include "volume.h"
 
 namespace arap {
@@ -26,10 +27,12 @@ double ms_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-double dot(const std::vector<double>& a, const std::vector<double>& b) {
-  double sum = 0;
-  for (size_t k = 0; k < a.size(); ++k) sum += a[k] * b[k];
-  return sum;
+double dot(const std::vector<double>& a, const std::vector<double>& b, int threads) {
+  return sum_over_halves(static_cast<std::ptrdiff_t>(a.size()), threads, [&](std::ptrdiff_t begin, std::ptrdiff_t end) {
+    double sum = 0;
+    for (std::ptrdiff_t k = begin; k < end; ++k) sum += a[k] * b[k];
+    return sum;
+  });
 }
 
 // Pairs of (s, y) the quasi-Newton method remembers. On dino 3, 4, 6 and 10
@@ -166,15 +169,18 @@ struct Solver::Impl {
     stats.linear_solve_ms += ms_since(t);
     // With the volume kept, -L^-1 g~ is tangent already (u.g~ = 0): this only removes rounding.
     if (volume.active()) volume.project_tangent(qn_d.data(), qn_n.data(), qn_u.data());
-    return 2 * dot(qn_g, qn_d);
+    return 2 * dot(qn_g, qn_d, options.threads);
   }
 
   // Energy at x + alpha d (its local step leaves the rotations for the next gradient).
   double trial(double alpha, SolveStats& stats) {
-    for (size_t r = 0; r < mesh.free_vertices.size(); ++r) {
-      double* p = state.data() + 3 * mesh.free_vertices[r];
-      for (int c = 0; c < 3; ++c) p[c] = qn_x[3 * r + c] + alpha * qn_d[3 * r + c];
-    }
+    for_each_half(static_cast<std::ptrdiff_t>(qn_x.size()), options.threads,
+                  [&](std::ptrdiff_t begin, std::ptrdiff_t end, int) {
+                    for (std::ptrdiff_t r = begin / 3; r < end / 3; ++r) {
+                      double* p = state.data() + 3 * mesh.free_vertices[r];
+                      for (int c = 0; c < 3; ++c) p[c] = qn_x[3 * r + c] + alpha * qn_d[3 * r + c];
+                    }
+                  });
     if (volume.active()) {
       const auto t = Clock::now();
       const bool on_constraint = volume.retract(state.data(), qn_u.data());
@@ -195,13 +201,13 @@ struct Solver::Impl {
       const auto ts = Clock::now();
       laplacian.solve_in_place(v, work, options.threads);
       solve_ms += ms_since(ts);
-    });
+    }, options.threads);
     stats.linear_solve_ms += solve_ms;
     stats.direction_ms += ms_since(t) - solve_ms;
     if (volume.active()) {
       // Onto the tangent plane; dE/dalpha = 2 g.d there (= 2 g~.d: n.d = 0 and g - g~ is along n).
       volume.project_tangent(qn_d.data(), qn_n.data(), qn_u.data());
-      slope = 2 * dot(qn_g, qn_d);
+      slope = 2 * dot(qn_g, qn_d, options.threads);
     }
     qn_plain = lbfgs.stored() == 0;
     if (!(slope < 0) && !qn_plain) {
@@ -267,12 +273,18 @@ struct Solver::Impl {
       for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
         for (int c = 0; c < 3; ++c) qn_d[3 * r + c] = (state(mesh.free_vertices[r], c) - qn_x[3 * r + c]) / alpha;
     }
-    double sy = 0, ss = 0, yy = 0;
-    for (size_t k = 0; k < qn_x.size(); ++k) {
-      const double sk = alpha * qn_d[k], g_new = y[k], yk = g_new - qn_g[k];
-      s[k] = sk, y[k] = yk, qn_x[k] += sk, qn_g[k] = g_new;
-      sy += sk * yk, ss += sk * sk, yy += yk * yk;
-    }
+    double sums[2][3] = {{0, 0, 0}, {0, 0, 0}};  // s.y, s.s, y.y per half
+    for_each_half(static_cast<std::ptrdiff_t>(qn_x.size()), options.threads,
+                  [&](std::ptrdiff_t begin, std::ptrdiff_t end, int half) {
+                    double sy = 0, ss = 0, yy = 0;
+                    for (std::ptrdiff_t k = begin; k < end; ++k) {
+                      const double sk = alpha * qn_d[k], g_new = y[k], yk = g_new - qn_g[k];
+                      s[k] = sk, y[k] = yk, qn_x[k] += sk, qn_g[k] = g_new;
+                      sy += sk * yk, ss += sk * sk, yy += yk * yk;
+                    }
+                    sums[half][0] = sy, sums[half][1] = ss, sums[half][2] = yy;
+                  });
+    const double sy = sums[0][0] + sums[1][0], ss = sums[0][1] + sums[1][1], yy = sums[0][2] + sums[1][2];
     if (qn_history) lbfgs.commit(sy, ss, yy);
     if (volume.active()) gather_free(qn_x);  // exactly where the step landed (x + s rounds)
     stats.direction_ms += ms_since(t);
