@@ -86,8 +86,8 @@ class Solver {
   const std::vector<int>& constrained() const;
   const MeshReport& mesh_report() const;
   const BindStats& bind_stats() const;
-  // Entries stored in the Cholesky factor of the free block, the explicit zeros of merged
-  // supernodes included (memory and solve cost follow it).
+  // Nonzeros of the Cholesky factor of the free block (memory and solve cost follow it);
+  // the supernodal factorization drops the explicit zeros its merged supernodes held.
   long factor_nonzeros() const;
 
   // ARAP energy of `positions` with the optimal rotation of every cell and the
