@@ -28,12 +28,14 @@ class LbfgsHistory {
   double* next_y();
   bool commit(double sy, double ss, double yy);
 
-  // d = -H g, H the L-BFGS inverse Hessian on preconditioner(v) (in place:
-  // v <- H0 v). Returns g.d, the directional derivative of half the energy.
-  // Long vectors are streamed in two halves, on two threads if `threads` > 1
-  // (the same result either way, see vector_halves.h).
+  // d = -H g, H the L-BFGS inverse Hessian on H0 = h0_scale * P, P applied by
+  // preconditioner(v) (in place: v <- P v); h0_scale only counts once a pair is
+  // stored (with none, d = -P g exactly). Returns g.d, the directional
+  // derivative of half the energy. Long vectors are streamed in two halves, on
+  // two threads if `threads` > 1 (the same result either way, see vector_halves.h).
   template <class Preconditioner>
-  double direction(const double* g, double* d, const Preconditioner& preconditioner, int threads = 1);
+  double direction(const double* g, double* d, const Preconditioner& preconditioner, int threads = 1,
+                   double h0_scale = 1.0);
 
  private:
   int column(int k) const { return (newest_ - k + capacity_) % capacity_; }  // k = 0: newest
@@ -62,10 +64,23 @@ inline double axpy_dot(double* q, double a, const double* x, const double* z, Ei
   return (d0 + d1) + (d2 + d3);
 }
 
+// q <- c q, and returns z.q of the scaled q; the same fixed order of partial sums.
+inline double scale_dot(double* q, double c, const double* z, Eigen::Index n) {
+  double d0 = 0, d1 = 0, d2 = 0, d3 = 0;
+  Eigen::Index i = 0;
+  for (; i + 4 <= n; i += 4) {
+    q[i] *= c, q[i + 1] *= c, q[i + 2] *= c, q[i + 3] *= c;
+    d0 += z[i] * q[i], d1 += z[i + 1] * q[i + 1], d2 += z[i + 2] * q[i + 2], d3 += z[i + 3] * q[i + 3];
+  }
+  for (; i < n; ++i) q[i] *= c, d0 += z[i] * q[i];
+  return (d0 + d1) + (d2 + d3);
+}
+
 }  // namespace lbfgs_detail
 
 template <class Preconditioner>
-double LbfgsHistory::direction(const double* g, double* d, const Preconditioner& preconditioner, int threads) {
+double LbfgsHistory::direction(const double* g, double* d, const Preconditioner& preconditioner, int threads,
+                               double h0_scale) {
   const Eigen::Index n = s_.rows();
   double* q = d;
   // q <- q + a x and z.q, over the halves (z may be null).
@@ -85,9 +100,14 @@ double LbfgsHistory::direction(const double* g, double* d, const Preconditioner&
     const double* s_next = k + 1 < stored_ ? s_.col(column(k + 1)).data() : nullptr;
     dot = update(-a, y_.col(c).data(), s_next);
   }
-  preconditioner(q);  // r = H0 q
+  preconditioner(q);  // r = H0 q = h0_scale P q: the scale is applied in the pass that takes the next dot
   // Second loop, oldest to newest: beta_i = rho_i y_i.r, r <- r + (alpha_i - beta_i) s_i.
-  dot = stored_ > 0 ? update(0.0, g, y_.col(column(stored_ - 1)).data()) : 0.0;
+  if (stored_ > 0) {
+    const double* z = y_.col(column(stored_ - 1)).data();
+    dot = sum_over_halves(n, threads, [&](std::ptrdiff_t b, std::ptrdiff_t e) {
+      return lbfgs_detail::scale_dot(q + b, h0_scale, z + b, e - b);
+    });
+  }
   for (int k = stored_ - 1; k >= 0; --k) {
     const int c = column(k);
     const double* y_next = k > 0 ? y_.col(column(k - 1)).data() : nullptr;
