@@ -181,34 +181,51 @@ void BlockCholesky::solve_in_place(double* x, std::vector<double>& work, int thr
   work.resize(3 * (n_ + 2 * separator_rows));
   double* y = work.data();
   double* partial[2] = {y + 3 * n_, y + 3 * (n_ + separator_rows)};  // each half's updates to the separator
-  for (Eigen::Index i = 0; i < n_; ++i) {
-    const double* src = x + 3 * perm_[i];
-    y[3 * i] = src[0], y[3 * i + 1] = src[1], y[3 * i + 2] = src[2];
-  }
-  std::fill(partial[0], partial[0] + 6 * separator_rows, 0.0);
+  // Rows [begin, end) of y = P x, and back.
+  auto gather = [&](Eigen::Index begin, Eigen::Index end) {
+    for (Eigen::Index i = begin; i < end; ++i) {
+      const double* src = x + 3 * perm_[i];
+      y[3 * i] = src[0], y[3 * i + 1] = src[1], y[3 * i + 2] = src[2];
+    }
+  };
+  auto scatter = [&](Eigen::Index begin, Eigen::Index end) {
+    for (Eigen::Index i = begin; i < end; ++i) {
+      double* dst = x + 3 * perm_[i];
+      dst[0] = y[3 * i], dst[1] = y[3 * i + 1], dst[2] = y[3 * i + 2];
+    }
+  };
+  // Each half permutes its own rows in and out beside its substitutions, so
+  // that on two threads only the separator's work is serial.
+  auto forward_half = [&](int h, Eigen::Index begin, Eigen::Index end) {
+    gather(begin, end);
+    std::fill(partial[h], partial[h] + 3 * separator_rows, 0.0);
+    forward(y, begin, end, partial[h]);
+  };
+  auto backward_half = [&](Eigen::Index begin, Eigen::Index end) {
+    backward(y, begin, end);
+    scatter(begin, end);
+  };
   const bool parallel = threads > 1 && half_[1] > 0;
   // The halves never touch each other's rows; their updates to the separator are
   // summed afterwards in a fixed order, whatever ran them.
   {
     std::thread second;
-    if (parallel) second = std::thread([&] { forward(y, half_[0], separator_, partial[1]); });
-    forward(y, 0, half_[0], partial[0]);
+    if (parallel) second = std::thread([&] { forward_half(1, half_[0], separator_); });
+    forward_half(0, 0, half_[0]);
+    gather(separator_, n_);
     if (parallel) second.join();
-    else forward(y, half_[0], separator_, partial[1]);
+    else forward_half(1, half_[0], separator_);
   }
   for (Eigen::Index k = 0; k < 3 * separator_rows; ++k) y[3 * separator_ + k] += partial[0][k] + partial[1][k];
   forward(y, separator_, n_, nullptr);
   backward(y, separator_, n_);
   {
     std::thread second;
-    if (parallel) second = std::thread([&] { backward(y, half_[0], separator_); });
-    backward(y, 0, half_[0]);
+    if (parallel) second = std::thread([&] { backward_half(half_[0], separator_); });
+    backward_half(0, half_[0]);
+    scatter(separator_, n_);
     if (parallel) second.join();
-    else backward(y, half_[0], separator_);
-  }
-  for (Eigen::Index i = 0; i < n_; ++i) {
-    double* dst = x + 3 * perm_[i];
-    dst[0] = y[3 * i], dst[1] = y[3 * i + 1], dst[2] = y[3 * i + 2];
+    else backward_half(half_[0], separator_);
   }
 }
 
