@@ -46,34 +46,21 @@ class LbfgsHistory {
 
 namespace lbfgs_detail {
 
-// q <- q + a x, and returns z.q of the updated q (z may be null: returns 0).
-// Four partial sums in a fixed order: the compiler may vectorise the loop
-// without reassociating, and the result does not depend on it.
-inline double axpy_dot(double* q, double a, const double* x, const double* z, Eigen::Index n) {
-  double d0 = 0, d1 = 0, d2 = 0, d3 = 0;
+// q[i] <- f(i, q[i]) for every i, and returns z.q of the new q (z may be null:
+// returns 0). Four partial sums in a fixed order: the compiler may vectorise
+// the loop without reassociating, and the result does not depend on it.
+template <class F>
+double map_dot(double* q, const F& f, const double* z, Eigen::Index n) {
+  double d[4] = {0, 0, 0, 0};
   Eigen::Index i = 0;
-  if (z) {
-    for (; i + 4 <= n; i += 4) {
-      q[i] += a * x[i], q[i + 1] += a * x[i + 1], q[i + 2] += a * x[i + 2], q[i + 3] += a * x[i + 3];
-      d0 += z[i] * q[i], d1 += z[i + 1] * q[i + 1], d2 += z[i + 2] * q[i + 2], d3 += z[i + 3] * q[i + 3];
-    }
-    for (; i < n; ++i) q[i] += a * x[i], d0 += z[i] * q[i];
-  } else {
-    for (; i < n; ++i) q[i] += a * x[i];
+  if (!z) {
+    for (; i < n; ++i) q[i] = f(i, q[i]);
+    return 0;
   }
-  return (d0 + d1) + (d2 + d3);
-}
-
-// q <- c q, and returns z.q of the scaled q; the same fixed order of partial sums.
-inline double scale_dot(double* q, double c, const double* z, Eigen::Index n) {
-  double d0 = 0, d1 = 0, d2 = 0, d3 = 0;
-  Eigen::Index i = 0;
-  for (; i + 4 <= n; i += 4) {
-    q[i] *= c, q[i + 1] *= c, q[i + 2] *= c, q[i + 3] *= c;
-    d0 += z[i] * q[i], d1 += z[i + 1] * q[i + 1], d2 += z[i + 2] * q[i + 2], d3 += z[i + 3] * q[i + 3];
-  }
-  for (; i < n; ++i) q[i] *= c, d0 += z[i] * q[i];
-  return (d0 + d1) + (d2 + d3);
+  for (; i + 4 <= n; i += 4)
+    for (int k = 0; k < 4; ++k) q[i + k] = f(i + k, q[i + k]), d[k] += z[i + k] * q[i + k];
+  for (; i < n; ++i) q[i] = f(i, q[i]), d[0] += z[i] * q[i];
+  return (d[0] + d[1]) + (d[2] + d[3]);
 }
 
 }  // namespace lbfgs_detail
@@ -83,17 +70,20 @@ double LbfgsHistory::direction(const double* g, double* d, const Preconditioner&
                                double h0_scale) {
   const Eigen::Index n = s_.rows();
   double* q = d;
-  // q <- q + a x and z.q, over the halves (z may be null).
-  auto update = [&](double a, const double* x, const double* z) {
+  // q[i] <- f(q[i], i) and z.q, over the halves (z may be null).
+  auto pass = [&](const auto& f, const double* z) {
     return sum_over_halves(n, threads, [&](std::ptrdiff_t b, std::ptrdiff_t e) {
-      return lbfgs_detail::axpy_dot(q + b, a, x + b, z ? z + b : nullptr, e - b);
+      return lbfgs_detail::map_dot(q + b, [&](Eigen::Index i, double v) { return f(b + i, v); }, z ? z + b : nullptr,
+                                   e - b);
     });
+  };
+  auto update = [&](double a, const double* x, const double* z) {  // q <- q + a x
+    return pass([&](std::ptrdiff_t i, double v) { return v + a * x[i]; }, z);
   };
   // Each pass over q applies one pair's update and takes the dot product the
   // next pair needs, so q streams through memory once per pair, not twice.
   // First loop, newest pair to oldest: alpha_i = rho_i s_i.q, q <- q - alpha_i y_i.
-  for_each_half(n, threads, [&](std::ptrdiff_t b, std::ptrdiff_t e, int) { std::copy(g + b, g + e, q + b); });
-  double dot = stored_ > 0 ? update(0.0, g, s_.col(column(0)).data()) : 0.0;
+  double dot = pass([&](std::ptrdiff_t i, double) { return g[i]; }, stored_ > 0 ? s_.col(column(0)).data() : nullptr);
   for (int k = 0; k < stored_; ++k) {
     const int c = column(k);
     const double a = alpha_[c] = rho_[c] * dot;
@@ -102,22 +92,15 @@ double LbfgsHistory::direction(const double* g, double* d, const Preconditioner&
   }
   preconditioner(q);  // r = H0 q = h0_scale P q: the scale is applied in the pass that takes the next dot
   // Second loop, oldest to newest: beta_i = rho_i y_i.r, r <- r + (alpha_i - beta_i) s_i.
-  if (stored_ > 0) {
-    const double* z = y_.col(column(stored_ - 1)).data();
-    dot = sum_over_halves(n, threads, [&](std::ptrdiff_t b, std::ptrdiff_t e) {
-      return lbfgs_detail::scale_dot(q + b, h0_scale, z + b, e - b);
-    });
-  }
+  if (stored_ > 0)
+    dot = pass([&](std::ptrdiff_t, double v) { return h0_scale * v; }, y_.col(column(stored_ - 1)).data());
   for (int k = stored_ - 1; k >= 0; --k) {
     const int c = column(k);
     const double* y_next = k > 0 ? y_.col(column(k - 1)).data() : nullptr;
     dot = update(alpha_[c] - rho_[c] * dot, s_.col(c).data(), y_next);
   }
   // d = -r, and g.d.
-  for_each_half(n, threads, [&](std::ptrdiff_t b, std::ptrdiff_t e, int) {
-    for (std::ptrdiff_t i = b; i < e; ++i) q[i] = -q[i];
-  });
-  return update(0.0, g, g);
+  return pass([](std::ptrdiff_t, double v) { return -v; }, g);
 }
 
 }  // namespace arap
