@@ -40,7 +40,7 @@ std::vector<int> elimination_tree(const Eigen::SparseMatrix<double>& A, const st
 // that precede the part that couples them.
 std::vector<int> postorder_within_parts(const std::vector<int>& parent, const std::vector<int>& bounds);
 
-// Factors A (both triangles stored; `parent`: its elimination tree, which
+// Factors A (only its lower triangle is read; `parent`: its elimination tree, which
 // must be postordered, see above). Supernodes never span two parts
 // [bounds[k], bounds[k+1]). Returns false (L cleared) if A is not positive
 // definite.

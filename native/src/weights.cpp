@@ -23,8 +23,16 @@ std::vector<WeightedEdge> edge_weights(
     const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& rest,
     const Eigen::Ref<const Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>& triangles, Weights kind,
     EdgeCounts* counts) {
-  std::vector<EdgeEntry> entries;
-  entries.reserve(3 * static_cast<size_t>(triangles.rows()));
+  // Each triangle's three edges, grouped by their smaller index: a counting
+  // pass over the indices (every triangle, so a group may keep unused room
+  // for degenerate ones), then the weights written straight into the groups.
+  const int n = static_cast<int>(rest.rows());
+  std::vector<int> group_begin(n + 1, 0);
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f)
+    for (int k = 0; k < 3; ++k) ++group_begin[std::min(triangles(f, (k + 1) % 3), triangles(f, (k + 2) % 3)) + 1];
+  for (int v = 0; v < n; ++v) group_begin[v + 1] += group_begin[v];
+  std::vector<EdgeEntry> grouped(group_begin[n]);
+  std::vector<int> group_end(group_begin.begin(), group_begin.end() - 1);
   int degenerate = 0;
   for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
     const int idx[3] = {triangles(f, 0), triangles(f, 1), triangles(f, 2)};
@@ -43,24 +51,16 @@ std::vector<WeightedEdge> edge_weights(
         const double c = (p[a] - p[k]).dot(p[b] - p[k]) * inv_twice_area;
         w = 0.5 * (kind == Weights::CotanClamped ? std::max(c, 0.0) : c);
       }
-      entries.push_back({std::min(idx[a], idx[b]), std::max(idx[a], idx[b]), w});
+      const int i = std::min(idx[a], idx[b]);
+      grouped[group_end[i]++] = {i, std::max(idx[a], idx[b]), w};
     }
   }
-  // Group by the smaller index with a counting pass, then sort each small group by the larger.
-  const int n = static_cast<int>(rest.rows());
-  std::vector<int> group_begin(n + 1, 0);
-  for (const auto& e : entries) ++group_begin[e.i + 1];
-  for (int v = 0; v < n; ++v) group_begin[v + 1] += group_begin[v];
-  std::vector<EdgeEntry> grouped(entries.size());
-  {
-    std::vector<int> fill(group_begin.begin(), group_begin.end() - 1);
-    for (const auto& e : entries) grouped[fill[e.i]++] = e;
-  }
+  // Each small group sorted by the larger index; repeated edges summed.
   std::vector<WeightedEdge> edges;
-  edges.reserve(entries.size() / 2 + 1);
+  edges.reserve(grouped.size() / 2 + 1);
   int nonmanifold = 0;
   for (int v = 0; v < n; ++v) {
-    auto first = grouped.begin() + group_begin[v], last = grouped.begin() + group_begin[v + 1];
+    auto first = grouped.begin() + group_begin[v], last = grouped.begin() + group_end[v];
     std::sort(first, last);
     for (auto s = first; s != last;) {
       auto e = s;
