@@ -194,7 +194,9 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
   // not yet used); when that supernode comes, d's update is
   // C = L_d(rows from the cursor, :) L_d(rows inside the target, :)^T,
   // subtracted through `map` (row -> position in the target's block).
-  std::vector<double> value(static_cast<size_t>(value_start[m]), 0.0), update, pack;
+  // Each block is zeroed when its supernode comes (in cache, just before use), not all up front.
+  LargeBuffer<double> value(static_cast<size_t>(value_start[m]));
+  std::vector<double> update, pack;
   const bool avx2 = have_avx2_fma() && !std::getenv("ARAP_NO_AVX2");
   std::vector<int> map(n), waiting_head(m, -1), waiting_next(m, -1), relative;
   std::vector<long> cursor(m);
@@ -203,6 +205,7 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
     const int* row = rows.data() + row_start[s];
     const long height = row_start[s + 1] - row_start[s];
     double* block = value.data() + value_start[s];
+    std::fill(block, block + height * width, 0.0);
     for (long k = 0; k < height; ++k) map[row[k]] = static_cast<int>(k);
     for (int j = begin; j < end; ++j)
       for (Sparse::InnerIterator it(A, j); it; ++it)

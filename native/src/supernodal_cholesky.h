@@ -17,6 +17,8 @@
 #include <Eigen/SparseCore>
 #include <vector>
 
+#include "large_buffer.h"
+
 namespace arap {
 
 // L in compressed sparse columns, the diagonal first in each column and the
@@ -24,8 +26,8 @@ namespace arap {
 // introduced are dropped.
 struct SparseFactor {
   std::vector<long> outer;  // n + 1 column starts
-  std::vector<int> inner;   // row of each entry
-  std::vector<double> value;
+  LargeBuffer<int> inner;  // row of each entry
+  LargeBuffer<double> value;
   void clear() { *this = SparseFactor(); }
 };
 

@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 
 #include "arap/mesh_check.h"
+#include "large_buffer.h"
 
 namespace arap {
 
@@ -31,18 +32,19 @@ std::vector<WeightedEdge> edge_weights(
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)
     for (int k = 0; k < 3; ++k) ++group_begin[std::min(triangles(f, (k + 1) % 3), triangles(f, (k + 2) % 3)) + 1];
   for (int v = 0; v < n; ++v) group_begin[v + 1] += group_begin[v];
-  std::vector<EdgeEntry> grouped(group_begin[n]);
+  LargeBuffer<EdgeEntry> grouped(group_begin[n]);  // written before it is read
   std::vector<int> group_end(group_begin.begin(), group_begin.end() - 1);
   int degenerate = 0;
   for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
     const int idx[3] = {triangles(f, 0), triangles(f, 1), triangles(f, 2)};
     const Eigen::Vector3d p[3] = {rest.row(idx[0]), rest.row(idx[1]), rest.row(idx[2])};
-    if (is_degenerate_triangle(p[0], p[1], p[2])) {
+    // |u x v| is twice the area at every corner: cot = (u . v) / |u x v| needs one square root.
+    const double twice_area = twice_area_unless_degenerate(p[0], p[1], p[2]);
+    if (twice_area == 0) {
       ++degenerate;
       continue;
     }
-    // |u x v| is twice the area at every corner: cot = (u . v) / |u x v| needs one square root.
-    const double inv_twice_area = 1.0 / (p[1] - p[0]).cross(p[2] - p[0]).norm();
+    const double inv_twice_area = 1.0 / twice_area;
     for (int k = 0; k < 3; ++k) {
       // The edge opposite corner k.
       const int a = (k + 1) % 3, b = (k + 2) % 3;
@@ -57,10 +59,10 @@ std::vector<WeightedEdge> edge_weights(
   }
   // Each small group sorted by the larger index; repeated edges summed.
   std::vector<WeightedEdge> edges;
-  edges.reserve(grouped.size() / 2 + 1);
+  edges.reserve(group_begin[n] / 2 + 1);
   int nonmanifold = 0;
   for (int v = 0; v < n; ++v) {
-    auto first = grouped.begin() + group_begin[v], last = grouped.begin() + group_end[v];
+    EdgeEntry *first = grouped.data() + group_begin[v], *last = grouped.data() + group_end[v];
     std::sort(first, last);
     for (auto s = first; s != last;) {
       auto e = s;
