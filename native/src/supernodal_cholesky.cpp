@@ -195,7 +195,7 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
   // C = L_d(rows from the cursor, :) L_d(rows inside the target, :)^T,
   // subtracted through `map` (row -> position in the target's block).
   // Each block is zeroed when its supernode comes (in cache, just before use), not all up front.
-  LargeBuffer<double> value(static_cast<size_t>(value_start[m]));
+  UninitializedVector<double> value(static_cast<size_t>(value_start[m]));
   std::vector<double> update, pack;
   const bool avx2 = have_avx2_fma() && !std::getenv("ARAP_NO_AVX2");
   std::vector<int> map(n), waiting_head(m, -1), waiting_next(m, -1), relative;

@@ -17,7 +17,7 @@
 #include <Eigen/SparseCore>
 #include <vector>
 
-#include "large_buffer.h"
+#include "default_init.h"
 
 namespace arap {
 
@@ -26,8 +26,8 @@ namespace arap {
 // introduced are dropped.
 struct SparseFactor {
   std::vector<long> outer;  // n + 1 column starts
-  LargeBuffer<int> inner;  // row of each entry
-  LargeBuffer<double> value;
+  UninitializedVector<int> inner;  // row of each entry
+  UninitializedVector<double> value;
   void clear() { *this = SparseFactor(); }
 };
 

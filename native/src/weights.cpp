@@ -5,7 +5,7 @@
 #include <Eigen/Geometry>
 
 #include "arap/mesh_check.h"
-#include "large_buffer.h"
+#include "default_init.h"
 
 namespace arap {
 
@@ -32,7 +32,7 @@ std::vector<WeightedEdge> edge_weights(
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)
     for (int k = 0; k < 3; ++k) ++group_begin[std::min(triangles(f, (k + 1) % 3), triangles(f, (k + 2) % 3)) + 1];
   for (int v = 0; v < n; ++v) group_begin[v + 1] += group_begin[v];
-  LargeBuffer<EdgeEntry> grouped(group_begin[n]);  // written before it is read
+  UninitializedVector<EdgeEntry> grouped(group_begin[n]);  // written before it is read
   std::vector<int> group_end(group_begin.begin(), group_begin.end() - 1);
   int degenerate = 0;
   for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
