@@ -7,6 +7,8 @@
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 
+#include "prefault.h"
+
 namespace arap {
 
 namespace {
@@ -33,6 +35,7 @@ std::vector<int> amd_order(const Eigen::SparseMatrix<double>& A, const std::vect
   pattern.reserve(entries + entries / 5 + 2 * m);  // Eigen's AMD grows the storage to this
   int* inner = pattern.innerIndexPtr();
   int* outer = pattern.outerIndexPtr();
+  prefault(inner, sizeof(int) * entries);
   long p = 0;
   outer[0] = 0;
   for (int k = 0; k < m; ++k) {
@@ -102,6 +105,8 @@ Eigen::SparseMatrix<double> permuted_lower(const Eigen::SparseMatrix<double>& A,
   L.resizeNonZeros(start[n]);
   int* rows = L.innerIndexPtr();
   double* values = L.valuePtr();
+  prefault(rows, sizeof(int) * start[n]);
+  prefault(values, sizeof(double) * start[n]);
   std::vector<int> fill(start, start + n);
   for (int i = 0; i < n; ++i)
     for (int p = outer[perm[i]]; p < outer[perm[i] + 1]; ++p) {

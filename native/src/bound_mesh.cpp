@@ -7,6 +7,7 @@
 #include "arap/errors.h"
 #include "arap/weights.h"
 #include "union_find.h"
+#include "prefault.h"
 #include "vertex_order.h"
 
 namespace arap {
@@ -89,6 +90,7 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   m.rank.assign(m.n, 0);
   for (int k = 0; k < m.n; ++k) m.rank[m.order[k]] = k;
   m.rest.resize(m.n, 3);
+  prefault(m.rest.data(), sizeof(double) * m.rest.size());
   for (int k = 0; k < m.n; ++k) {
     const int v = m.order[k];
     if (v < m.input_n)
@@ -156,6 +158,7 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   }
   m.neighbor.resize(m.spoke_begin[m.n]);
   m.spokes.resize(m.spoke_begin[m.n]);
+  prefault_buffer(m.spokes);
   m.rest_spoke_energy.resize(m.n);
   m.g_sum.resize(3 * static_cast<size_t>(m.n));
   for (int i = 0; i < m.n; ++i) {
@@ -190,6 +193,8 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   int* outer = m.laplacian_ff.outerIndexPtr();
   int* inner = m.laplacian_ff.innerIndexPtr();
   double* values = m.laplacian_ff.valuePtr();
+  prefault(inner, sizeof(int) * m.laplacian_ff.nonZeros());
+  prefault(values, sizeof(double) * m.laplacian_ff.nonZeros());
   int p = 0;
   outer[0] = 0;
   std::vector<std::pair<int, double>> column;

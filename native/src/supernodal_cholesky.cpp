@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 
 #include "dense_kernels.h"
+#include "prefault.h"
 
 namespace arap {
 
@@ -157,7 +158,8 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
                          SparseFactor& L) {
   L.clear();
   const int n = static_cast<int>(A.rows());
-  std::vector<int> first = supernodes(parent, column_counts(A, parent), part_ends(bounds, n));
+  const std::vector<int> count = column_counts(A, parent);
+  std::vector<int> first = supernodes(parent, count, part_ends(bounds, n));
   const int m = static_cast<int>(first.size()) - 1;
   std::vector<int> super_of(n);
   for (int s = 0; s < m; ++s)
@@ -196,6 +198,7 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
   // subtracted through `map` (row -> position in the target's block).
   // Each block is zeroed when its supernode comes (in cache, just before use), not all up front.
   UninitializedVector<double> value(static_cast<size_t>(value_start[m]));
+  prefault_buffer(value);
   std::vector<double> update, pack;
   const bool avx2 = have_avx2_fma() && !std::getenv("ARAP_NO_AVX2");
   std::vector<int> map(n), waiting_head(m, -1), waiting_next(m, -1), relative;
@@ -278,6 +281,9 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
     stored += width * height - width * (width - 1) / 2;
   }
   L.inner.resize(static_cast<size_t>(stored));  // an upper bound, cut below
+  long structural = 0;  // L's entries but the zeros amalgamation added: what is written, but exact zeros
+  for (int c : count) structural += c;
+  prefault_buffer(L.inner, static_cast<size_t>(std::min(structural, stored)));
   int* inner = L.inner.data();
   long p = 0;
   for (int s = 0; s < m; ++s) {

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "prefault.h"
+
 namespace arap {
 
 namespace {
@@ -32,6 +34,8 @@ EdgeGraph edge_graph(int n, const std::vector<WeightedEdge>& edges) {
   for (int v = 0; v < n; ++v) g.begin[v + 1] += g.begin[v];
   g.adjacent.resize(g.begin[n]);
   g.weight.resize(g.begin[n]);
+  prefault_buffer(g.adjacent);
+  prefault_buffer(g.weight);
   std::vector<int> fill(g.begin.begin(), g.begin.end() - 1);
   for (const auto& e : edges) {
     const int a = fill[e.i]++, b = fill[e.j]++;

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "arap/weights.h"
+#include "default_init.h"
 
 namespace arap {
 
@@ -14,8 +15,9 @@ namespace arap {
 // come in the list (by increasing neighbour for edge_weights()' sorted list),
 // with the edge's weight.
 struct EdgeGraph {
-  std::vector<int> begin, adjacent;
-  std::vector<double> weight;
+  std::vector<int> begin;
+  UninitializedVector<int> adjacent;
+  UninitializedVector<double> weight;
   int degree(int v) const { return begin[v + 1] - begin[v]; }
 };
 EdgeGraph edge_graph(int vertex_count, const std::vector<WeightedEdge>& edges);

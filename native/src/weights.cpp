@@ -6,6 +6,7 @@
 
 #include "arap/mesh_check.h"
 #include "default_init.h"
+#include "prefault.h"
 
 namespace arap {
 
@@ -33,6 +34,7 @@ std::vector<WeightedEdge> edge_weights(
     for (int k = 0; k < 3; ++k) ++group_begin[std::min(triangles(f, (k + 1) % 3), triangles(f, (k + 2) % 3)) + 1];
   for (int v = 0; v < n; ++v) group_begin[v + 1] += group_begin[v];
   UninitializedVector<EdgeEntry> grouped(group_begin[n]);  // written before it is read
+  prefault_buffer(grouped);
   std::vector<int> group_end(group_begin.begin(), group_begin.end() - 1);
   int degenerate = 0;
   for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
@@ -60,6 +62,7 @@ std::vector<WeightedEdge> edge_weights(
   // Each small group sorted by the larger index; repeated edges summed.
   std::vector<WeightedEdge> edges;
   edges.reserve(group_begin[n] / 2 + 1);
+  prefault(edges.data(), sizeof(WeightedEdge) * edges.capacity());
   int nonmanifold = 0;
   for (int v = 0; v < n; ++v) {
     EdgeEntry *first = grouped.data() + group_begin[v], *last = grouped.data() + group_end[v];
