@@ -156,11 +156,11 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
     for (int q = graph.begin[v]; q < graph.begin[v + 1]; ++q) count += graph.weight[q] != 0;
     m.spoke_begin[k + 1] = m.spoke_begin[k] + count;
   }
-  m.neighbor.resize(m.spoke_begin[m.n]);
+  resize_prefaulted(m.neighbor, m.spoke_begin[m.n]);
   m.spokes.resize(m.spoke_begin[m.n]);
   prefault_buffer(m.spokes);
-  m.rest_spoke_energy.resize(m.n);
-  m.g_sum.resize(3 * static_cast<size_t>(m.n));
+  resize_prefaulted(m.rest_spoke_energy, m.n);
+  resize_prefaulted(m.g_sum, 3 * static_cast<size_t>(m.n));
   for (int i = 0; i < m.n; ++i) {
     const int v = m.order[i];
     const Eigen::RowVector3d pi = m.rest.row(i);
@@ -189,12 +189,13 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   const double lattice_scale = infill ? infill->preconditioner_scale : 1.0;
   // Written straight into the matrix's storage, sized for at most one entry per spoke plus the diagonal.
   m.laplacian_ff.resize(nf, nf);
-  m.laplacian_ff.resizeNonZeros(static_cast<Eigen::Index>(m.spokes.size()) + nf);
+  const size_t capacity = m.spokes.size() + nf;
+  m.laplacian_ff.resizeNonZeros(static_cast<Eigen::Index>(capacity));
   int* outer = m.laplacian_ff.outerIndexPtr();
   int* inner = m.laplacian_ff.innerIndexPtr();
   double* values = m.laplacian_ff.valuePtr();
-  prefault(inner, sizeof(int) * m.laplacian_ff.nonZeros());
-  prefault(values, sizeof(double) * m.laplacian_ff.nonZeros());
+  prefault(inner, sizeof(int) * capacity);
+  prefault(values, sizeof(double) * capacity);
   int p = 0;
   outer[0] = 0;
   std::vector<std::pair<int, double>> column;

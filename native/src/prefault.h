@@ -21,6 +21,14 @@ void prefault_buffer(Buffer& buffer) {
   prefault_buffer(buffer, buffer.size());
 }
 
+// v.resize(count) with the pages mapped first.
+template <class Vector>
+void resize_prefaulted(Vector& v, std::size_t count) {
+  v.reserve(count);
+  prefault(static_cast<void*>(v.data()), count * sizeof(*v.data()));
+  v.resize(count);
+}
+
 // v.assign(count, x) with the pages mapped first.
 template <class Vector, class T>
 void assign_prefaulted(Vector& v, std::size_t count, const T& x) {

@@ -361,7 +361,9 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
   next->bound_volume = options.volume;
   next->bound_infill_resolution = options.infill_resolution;
   next->unit = unit_scale_of(rest);
-  const Points scaled = rest / next->unit;
+  Points scaled(rest.rows(), 3);
+  prefault(scaled.data(), sizeof(double) * scaled.size());
+  scaled = rest / next->unit;
   InfillGraph infill;
   if (options.volume == Volume::Infill) infill = build_infill(scaled, triangles, options.infill_resolution);
   next->mesh = build_bound_mesh(scaled, triangles, constrained, options.weights, stiffness,
@@ -378,6 +380,9 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
                 "triangulated mesh, try cotan-clamped");
   const int n = next->mesh.n;
   const size_t nf = next->mesh.free_vertices.size();
+  next->state.resize(n, 3);
+  next->positions.resize(rest.rows(), 3);
+  for (Points* p : {&next->state, &next->positions}) prefault(p->data(), sizeof(double) * p->size());
   next->state = next->mesh.rest;
   next->positions = rest;
   assign_prefaulted(next->rotations, n, Eigen::Matrix3d::Identity());
