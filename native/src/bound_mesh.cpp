@@ -6,8 +6,8 @@
 
 #include "arap/errors.h"
 #include "arap/weights.h"
-#include "union_find.h"
 #include "prefault.h"
+#include "union_find.h"
 #include "vertex_order.h"
 
 namespace arap {

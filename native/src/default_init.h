@@ -1,5 +1,5 @@
 // std::vector for large buffers that are written in full before they are
-// read (the factor's entries and rows, the spokes, the weights' groups):
+// read (the factor's entries and rows, the spokes, the edge groups and graph):
 // resize(n) default-initialises the new elements instead of zero-filling
 // them, which saves a pass over memory the size of the buffer.
 #pragma once

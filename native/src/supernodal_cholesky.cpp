@@ -281,7 +281,7 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
     stored += width * height - width * (width - 1) / 2;
   }
   L.inner.resize(static_cast<size_t>(stored));  // an upper bound, cut below
-  long structural = 0;  // L's entries but the zeros amalgamation added: what is written, but exact zeros
+  long structural = 0;  // L's own entries, the most that is kept: only those pages are mapped ahead
   for (int c : count) structural += c;
   prefault_buffer(L.inner, static_cast<size_t>(std::min(structural, stored)));
   int* inner = L.inner.data();
