@@ -7,6 +7,8 @@
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 
+#include "prefault.h"
+
 namespace arap {
 
 namespace {
@@ -18,36 +20,43 @@ using Permutation = Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int
 
 // AMD order of the rows `rows` of A (both triangles), as indices into A.
 // A's pattern is already symmetric, so Eigen's AMD runs on it directly,
-// without AMDOrdering's A + A^T.
+// without AMDOrdering's A + A^T. AMD only reads the pattern and works in
+// place with some elbow room: its input is a pattern-only copy (one byte per
+// value) allocated with that room, so AMD does not reallocate and copy it.
 std::vector<int> amd_order(const Eigen::SparseMatrix<double>& A, const std::vector<int>& rows,
                            std::vector<int>& local) {
   const int m = static_cast<int>(rows.size());
   if (m == 0) return {};
-  Permutation Pinv;
-  if (m == A.rows()) {  // the whole matrix (rows in order): a plain copy, which AMD overwrites
-    Eigen::SparseMatrix<double> copy = A;
-    Eigen::internal::minimum_degree_ordering(copy, Pinv);  // Pinv.indices()[new] = old
-    return std::vector<int>(Pinv.indices().data(), Pinv.indices().data() + m);
-  }
-  for (int k = 0; k < m; ++k) local[rows[k]] = k;
-  Eigen::SparseMatrix<double> sub(m, m);  // the pattern only
-  std::vector<int> inner;
-  inner.reserve(A.nonZeros());
-  sub.outerIndexPtr()[0] = 0;
+  const bool whole = m == A.rows();  // the whole matrix, rows in order
+  for (int k = 0; k < m && !whole; ++k) local[rows[k]] = k;
+  long entries = 0;
+  for (int k = 0; k < m; ++k) entries += A.outerIndexPtr()[rows[k] + 1] - A.outerIndexPtr()[rows[k]];
+  Eigen::SparseMatrix<char> pattern(m, m);
+  pattern.reserve(entries + entries / 5 + 2 * m);  // Eigen's AMD grows the storage to this
+  int* inner = pattern.innerIndexPtr();
+  int* outer = pattern.outerIndexPtr();
+  prefault(inner, sizeof(int) * entries);
+  long p = 0;
+  outer[0] = 0;
   for (int k = 0; k < m; ++k) {
-    const size_t begin = inner.size();
-    for (Eigen::SparseMatrix<double>::InnerIterator it(A, rows[k]); it; ++it)
-      if (local[it.row()] >= 0) inner.push_back(local[it.row()]);
-    std::sort(inner.begin() + static_cast<long>(begin), inner.end());
-    sub.outerIndexPtr()[k + 1] = static_cast<int>(inner.size());
+    const int* first = A.innerIndexPtr() + A.outerIndexPtr()[rows[k]];
+    const int* last = A.innerIndexPtr() + A.outerIndexPtr()[rows[k] + 1];
+    if (whole) {
+      p = std::copy(first, last, inner + p) - inner;
+    } else {  // rows within the part, renumbered: the order of A's rows is kept when `rows` is increasing
+      const long begin = p;
+      for (const int* i = first; i != last; ++i)
+        if (local[*i] >= 0) inner[p++] = local[*i];
+      std::sort(inner + begin, inner + p);
+    }
+    outer[k + 1] = static_cast<int>(p);
   }
-  sub.resizeNonZeros(static_cast<Eigen::Index>(inner.size()));
-  std::copy(inner.begin(), inner.end(), sub.innerIndexPtr());
-  std::fill(sub.valuePtr(), sub.valuePtr() + inner.size(), 1.0);
-  Eigen::internal::minimum_degree_ordering(sub, Pinv);  // Pinv.indices()[new] = old
+  pattern.resizeNonZeros(p);
+  Permutation Pinv;
+  Eigen::internal::minimum_degree_ordering(pattern, Pinv);  // Pinv.indices()[new] = old
   std::vector<int> out(m);
   for (int k = 0; k < m; ++k) out[k] = rows[Pinv.indices()[k]];
-  for (int k = 0; k < m; ++k) local[rows[k]] = -1;
+  for (int k = 0; k < m && !whole; ++k) local[rows[k]] = -1;
   return out;
 }
 
@@ -73,6 +82,38 @@ void split(const Eigen::SparseMatrix<double>& A, std::vector<int> part[3]) {
   int cut = 0;
   for (int below = 0; cut < levels && below + count[cut] < n / 2; ++cut) below += count[cut];
   for (int v = 0; v < n; ++v) part[level[v] < cut ? 0 : level[v] > cut ? 1 : 2].push_back(v);
+}
+
+// The lower triangle of P A P^T (row i of it is row perm[i] of A; A
+// symmetric, both triangles stored), the rows of each column in increasing
+// order: new rows are visited in order and each appends itself to the
+// columns it meets at or left of the diagonal. Half of the full permuted
+// matrix, which the factorization does not read.
+Eigen::SparseMatrix<double> permuted_lower(const Eigen::SparseMatrix<double>& A, const Eigen::VectorXi& perm) {
+  const int n = static_cast<int>(A.rows());
+  const int* outer = A.outerIndexPtr();
+  const int* inner = A.innerIndexPtr();
+  const double* value = A.valuePtr();
+  std::vector<int> position(n);  // old -> new
+  for (int i = 0; i < n; ++i) position[perm[i]] = i;
+  Eigen::SparseMatrix<double> L(n, n);
+  int* start = L.outerIndexPtr();  // zero after the constructor: counts first
+  for (int i = 0; i < n; ++i)
+    for (int p = outer[perm[i]]; p < outer[perm[i] + 1]; ++p)
+      if (position[inner[p]] <= i) ++start[position[inner[p]] + 1];
+  for (int j = 0; j < n; ++j) start[j + 1] += start[j];
+  L.resizeNonZeros(start[n]);
+  int* rows = L.innerIndexPtr();
+  double* values = L.valuePtr();
+  prefault(rows, sizeof(int) * start[n]);
+  prefault(values, sizeof(double) * start[n]);
+  std::vector<int> fill(start, start + n);
+  for (int i = 0; i < n; ++i)
+    for (int p = outer[perm[i]]; p < outer[perm[i] + 1]; ++p) {
+      const int j = position[inner[p]];
+      if (j <= i) rows[fill[j]] = i, values[fill[j]++] = value[p];
+    }
+  return L;
 }
 
 }  // namespace
@@ -105,10 +146,7 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel) 
   std::vector<int> position(n_), parent(n_);  // the tree in the final order
   for (Eigen::Index i = 0; i < n_; ++i) perm_[i] = order[post[i]], position[post[i]] = static_cast<int>(i);
   for (Eigen::Index i = 0; i < n_; ++i) parent[i] = tree[post[i]] < 0 ? -1 : position[tree[post[i]]];
-  Permutation P(n_);  // P.indices()[old] = new
-  for (Eigen::Index i = 0; i < n_; ++i) P.indices()[perm_[i]] = static_cast<int>(i);
-  Eigen::SparseMatrix<double> permuted;
-  permuted = A.selfadjointView<Eigen::Lower>().twistedBy(P);
+  const Eigen::SparseMatrix<double> permuted = permuted_lower(A, perm_);
   const auto ordered = Clock::now();
   auto factored = ordered;
   bool ok;

@@ -6,6 +6,7 @@
 
 #include "arap/errors.h"
 #include "arap/weights.h"
+#include "prefault.h"
 #include "union_find.h"
 #include "vertex_order.h"
 
@@ -77,21 +78,26 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   m.report.degenerate_triangles = counts.degenerate_triangles;
   m.report.nonmanifold_edges = counts.nonmanifold_edges;
   // Volume::Infill: the lattice nodes follow the mesh's vertices (input index #V + k), with their edges.
-  Points all(m.n, 3);
-  all.topRows(m.input_n) = rest;
   if (infill) {
-    all.bottomRows(m.n - m.input_n) = infill->nodes;
     edges.insert(edges.end(), infill->edges.begin(), infill->edges.end());
     m.report.infill_nodes = static_cast<int>(infill->nodes.rows());
     m.report.infill_cells = infill->cells;
   }
 
   // Internal numbering for locality of the per-vertex loops.
-  m.order = locality_order(m.n, edges);
+  const EdgeGraph graph = edge_graph(m.n, edges);
+  m.order = locality_order(graph);
   m.rank.assign(m.n, 0);
   for (int k = 0; k < m.n; ++k) m.rank[m.order[k]] = k;
   m.rest.resize(m.n, 3);
-  for (int k = 0; k < m.n; ++k) m.rest.row(k) = all.row(m.order[k]);
+  prefault(m.rest.data(), sizeof(double) * m.rest.size());
+  for (int k = 0; k < m.n; ++k) {
+    const int v = m.order[k];
+    if (v < m.input_n)
+      m.rest.row(k) = rest.row(v);
+    else
+      m.rest.row(k) = infill->nodes.row(v - m.input_n);
+  }
   m.stiffness.assign(m.n, 1.0);  // lattice nodes: 1
   if (!stiffness.empty())
     for (int k = 0; k < m.n; ++k)
@@ -141,29 +147,39 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   std::vector<int> slot_of(m.n, -1);
   for (size_t s = 0; s < m.constrained.size(); ++s) slot_of[m.constrained[s]] = static_cast<int>(s);
 
-  // Spokes in CSR order: both directions of every edge with a nonzero weight.
+  // Spokes in CSR order: both directions of every edge with a nonzero weight,
+  // vertex by vertex in the graph's order of neighbours.
   m.spoke_begin.assign(m.n + 1, 0);
-  for (const auto& e : edges)
-    if (e.w != 0) ++m.spoke_begin[m.rank[e.i] + 1], ++m.spoke_begin[m.rank[e.j] + 1];
-  for (int v = 0; v < m.n; ++v) m.spoke_begin[v + 1] += m.spoke_begin[v];
-  m.neighbor.resize(m.spoke_begin[m.n]);
+  for (int k = 0; k < m.n; ++k) {
+    const int v = m.order[k];
+    int count = 0;
+    for (int q = graph.begin[v]; q < graph.begin[v + 1]; ++q) count += graph.weight[q] != 0;
+    m.spoke_begin[k + 1] = m.spoke_begin[k] + count;
+  }
+  resize_prefaulted(m.neighbor, m.spoke_begin[m.n]);
   m.spokes.resize(m.spoke_begin[m.n]);
-  m.rest_spoke_energy.assign(m.n, 0.0);
-  m.g_sum.assign(3 * static_cast<size_t>(m.n), 0.0);
-  std::vector<int> fill(m.spoke_begin.begin(), m.spoke_begin.end() - 1);
-  auto add_spoke = [&](int i, int j, double w) {
-    const Eigen::RowVector3d e = m.rest.row(i) - m.rest.row(j);
-    const Eigen::RowVector3d g = w * e;
-    const int k = fill[i]++;
-    m.neighbor[k] = j;
-    m.spokes[k] = {g.x(), g.y(), g.z(), w};
-    m.rest_spoke_energy[i] += w * e.squaredNorm();
-    for (int d = 0; d < 3; ++d) m.g_sum[3 * i + d] += g[d];
-  };
-  for (const auto& e : edges) {
-    if (e.w == 0) continue;
-    add_spoke(m.rank[e.i], m.rank[e.j], e.w);
-    add_spoke(m.rank[e.j], m.rank[e.i], e.w);
+  prefault_buffer(m.spokes);
+  resize_prefaulted(m.rest_spoke_energy, m.n);
+  resize_prefaulted(m.g_sum, 3 * static_cast<size_t>(m.n));
+  for (int i = 0; i < m.n; ++i) {
+    const int v = m.order[i];
+    const Eigen::RowVector3d pi = m.rest.row(i);
+    double energy = 0;
+    Eigen::RowVector3d g_sum = Eigen::RowVector3d::Zero();
+    int k = m.spoke_begin[i];
+    for (int q = graph.begin[v]; q < graph.begin[v + 1]; ++q) {
+      const double w = graph.weight[q];
+      if (w == 0) continue;
+      const int j = m.rank[graph.adjacent[q]];
+      const Eigen::RowVector3d e = pi - m.rest.row(j);
+      const Eigen::RowVector3d g = w * e;
+      m.neighbor[k] = j;
+      m.spokes[k++] = {g.x(), g.y(), g.z(), w};
+      energy += w * e.squaredNorm();
+      g_sum += g;
+    }
+    m.rest_spoke_energy[i] = energy;
+    for (int d = 0; d < 3; ++d) m.g_sum[3 * i + d] = g_sum[d];
   }
 
   // Free block of L (L_ii = sum_j w~_ij, L_ij = -w~_ij with w~_ij = w_ij (s_i + s_j) / 2,
@@ -171,10 +187,17 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   // and its coupling to constrained vertices.
   const int nf = static_cast<int>(m.free_vertices.size());
   const double lattice_scale = infill ? infill->preconditioner_scale : 1.0;
-  std::vector<int> outer(nf + 1, 0), inner;
-  std::vector<double> values;
-  inner.reserve(m.spokes.size() + nf);
-  values.reserve(m.spokes.size() + nf);
+  // Written straight into the matrix's storage, sized for at most one entry per spoke plus the diagonal.
+  m.laplacian_ff.resize(nf, nf);
+  const size_t capacity = m.spokes.size() + nf;
+  m.laplacian_ff.resizeNonZeros(static_cast<Eigen::Index>(capacity));
+  int* outer = m.laplacian_ff.outerIndexPtr();
+  int* inner = m.laplacian_ff.innerIndexPtr();
+  double* values = m.laplacian_ff.valuePtr();
+  prefault(inner, sizeof(int) * capacity);
+  prefault(values, sizeof(double) * capacity);
+  int p = 0;
+  outer[0] = 0;
   std::vector<std::pair<int, double>> column;
   for (int r = 0; r < nf; ++r) {
     const int i = m.free_vertices[r];
@@ -192,14 +215,10 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
     }
     column.emplace_back(r, diagonal);
     std::sort(column.begin(), column.end());
-    for (const auto& [row, value] : column) inner.push_back(row), values.push_back(value);
-    outer[r + 1] = static_cast<int>(inner.size());
+    for (const auto& [row, value] : column) inner[p] = row, values[p++] = value;
+    outer[r + 1] = p;
   }
-  m.laplacian_ff.resize(nf, nf);
-  m.laplacian_ff.resizeNonZeros(static_cast<Eigen::Index>(inner.size()));
-  std::copy(outer.begin(), outer.end(), m.laplacian_ff.outerIndexPtr());
-  std::copy(inner.begin(), inner.end(), m.laplacian_ff.innerIndexPtr());
-  std::copy(values.begin(), values.end(), m.laplacian_ff.valuePtr());
+  m.laplacian_ff.resizeNonZeros(p);  // no reallocation: only the count shrinks
   return m;
 }
 

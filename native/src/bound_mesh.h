@@ -12,6 +12,7 @@
 #include "arap/options.h"
 #include "arap/solver.h"
 #include "infill.h"
+#include "default_init.h"
 
 namespace arap {
 
@@ -38,7 +39,7 @@ struct BoundMesh {
   // Spokes of vertex i: [spoke_begin[i], spoke_begin[i + 1]).
   std::vector<int> spoke_begin;
   std::vector<int> neighbor;
-  std::vector<Spoke> spokes;
+  UninitializedVector<Spoke> spokes;
   std::vector<double> rest_spoke_energy;  // sum_j w_ij |p_i - p_j|^2 (rest), per vertex
   std::vector<double> g_sum;              // G_i = sum_j g_ij, 3 per vertex
   std::vector<double> stiffness;          // s_i, per vertex (all 1 unless given)

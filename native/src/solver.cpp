@@ -14,6 +14,7 @@
 #include "initial_guess.h"
 #include "lbfgs.h"
 #include "local_step.h"
+#include "prefault.h"
 #include "unit_scale.h"
 #include "vector_halves.h"
 #include "volume.h"
@@ -395,13 +396,16 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
   next->bound_volume = options.volume;
   next->bound_infill_resolution = options.infill_resolution;
   next->unit = unit_scale_of(rest);
-  const Points scaled = rest / next->unit;
+  Points scaled(rest.rows(), 3);
+  prefault(scaled.data(), sizeof(double) * scaled.size());
+  scaled = rest / next->unit;
   InfillGraph infill;
   if (options.volume == Volume::Infill) infill = build_infill(scaled, triangles, options.infill_resolution);
   next->mesh = build_bound_mesh(scaled, triangles, constrained, options.weights, stiffness,
                                 options.volume == Volume::Infill ? &infill : nullptr);
   next->bind_stats.mesh_ms = ms_since(start);
   next->triangles.resize(triangles.rows(), 3);
+  prefault(next->triangles.data(), sizeof(int) * next->triangles.size());
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)
     for (int k = 0; k < 3; ++k) next->triangles(f, k) = next->mesh.rank[triangles(f, k)];
   next->constrained_input = constrained;
@@ -411,14 +415,17 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
                 "triangulated mesh, try cotan-clamped");
   const int n = next->mesh.n;
   const size_t nf = next->mesh.free_vertices.size();
+  next->state.resize(n, 3);
+  next->positions.resize(rest.rows(), 3);
+  for (Points* p : {&next->state, &next->positions}) prefault(p->data(), sizeof(double) * p->size());
   next->state = next->mesh.rest;
   next->positions = rest;
-  next->rotations.assign(n, Eigen::Matrix3d::Identity());
-  next->cell_energy.assign(n, 0.0);
-  next->eigenvalues.assign(n, 0.0);
-  next->coupled.assign(3 * nf, 0.0);
-  next->rhs.assign(3 * nf, 0.0);
-  next->work.assign(3 * nf, 0.0);
+  assign_prefaulted(next->rotations, n, Eigen::Matrix3d::Identity());
+  assign_prefaulted(next->cell_energy, n, 0.0);
+  assign_prefaulted(next->eigenvalues, n, 0.0);
+  assign_prefaulted(next->coupled, 3 * nf, 0.0);
+  assign_prefaulted(next->rhs, 3 * nf, 0.0);
+  assign_prefaulted(next->work, 3 * nf, 0.0);
   if (options.volume == Volume::Infill) next->bulk.bind(next->mesh, infill, kInfillBulk);
   if (options.volume == Volume::Global) {
     next->volume.bind(next->mesh, next->triangles);

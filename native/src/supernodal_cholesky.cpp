@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 
 #include "dense_kernels.h"
+#include "prefault.h"
 
 namespace arap {
 
@@ -157,7 +158,8 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
                          SparseFactor& L) {
   L.clear();
   const int n = static_cast<int>(A.rows());
-  std::vector<int> first = supernodes(parent, column_counts(A, parent), part_ends(bounds, n));
+  const std::vector<int> count = column_counts(A, parent);
+  std::vector<int> first = supernodes(parent, count, part_ends(bounds, n));
   const int m = static_cast<int>(first.size()) - 1;
   std::vector<int> super_of(n);
   for (int s = 0; s < m; ++s)
@@ -194,7 +196,10 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
   // not yet used); when that supernode comes, d's update is
   // C = L_d(rows from the cursor, :) L_d(rows inside the target, :)^T,
   // subtracted through `map` (row -> position in the target's block).
-  std::vector<double> value(static_cast<size_t>(value_start[m]), 0.0), update, pack;
+  // Each block is zeroed when its supernode comes (in cache, just before use), not all up front.
+  UninitializedVector<double> value(static_cast<size_t>(value_start[m]));
+  prefault_buffer(value);
+  std::vector<double> update, pack;
   const bool avx2 = have_avx2_fma() && !std::getenv("ARAP_NO_AVX2");
   std::vector<int> map(n), waiting_head(m, -1), waiting_next(m, -1), relative;
   std::vector<long> cursor(m);
@@ -203,6 +208,7 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
     const int* row = rows.data() + row_start[s];
     const long height = row_start[s + 1] - row_start[s];
     double* block = value.data() + value_start[s];
+    std::fill(block, block + height * width, 0.0);
     for (long k = 0; k < height; ++k) map[row[k]] = static_cast<int>(k);
     for (int j = begin; j < end; ++j)
       for (Sparse::InnerIterator it(A, j); it; ++it)
@@ -250,8 +256,8 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
     // L11 L11^T = A11 (dense Cholesky), then L21 = A21 L11^-T.
     Block diagonal(block, width, width, Eigen::OuterStride<>(height));
     Eigen::Ref<Eigen::MatrixXd> diagonal_ref(diagonal);
-    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(diagonal_ref);
-    if (llt.info() != Eigen::Success) return L.clear(), false;
+    // Eigen::LLT's own in-place factorization, without the L1 norm LLT computes first (for rcond()).
+    if (Eigen::internal::llt_inplace<double, Eigen::Lower>::blocked(diagonal_ref) != -1) return L.clear(), false;
     if (height > width) {
       if (avx2) {
         solve_transposed_avx2(block + width, height, height - width, block, height, width, pack);
@@ -275,6 +281,9 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
     stored += width * height - width * (width - 1) / 2;
   }
   L.inner.resize(static_cast<size_t>(stored));  // an upper bound, cut below
+  long structural = 0;  // L's own entries, the most that is kept: only those pages are mapped ahead
+  for (int c : count) structural += c;
+  prefault_buffer(L.inner, static_cast<size_t>(std::min(structural, stored)));
   int* inner = L.inner.data();
   long p = 0;
   for (int s = 0; s < m; ++s) {

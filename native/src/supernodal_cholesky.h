@@ -17,6 +17,8 @@
 #include <Eigen/SparseCore>
 #include <vector>
 
+#include "default_init.h"
+
 namespace arap {
 
 // L in compressed sparse columns, the diagonal first in each column and the
@@ -24,8 +26,8 @@ namespace arap {
 // introduced are dropped.
 struct SparseFactor {
   std::vector<long> outer;  // n + 1 column starts
-  std::vector<int> inner;   // row of each entry
-  std::vector<double> value;
+  UninitializedVector<int> inner;  // row of each entry
+  UninitializedVector<double> value;
   void clear() { *this = SparseFactor(); }
 };
 
@@ -40,7 +42,7 @@ std::vector<int> elimination_tree(const Eigen::SparseMatrix<double>& A, const st
 // that precede the part that couples them.
 std::vector<int> postorder_within_parts(const std::vector<int>& parent, const std::vector<int>& bounds);
 
-// Factors A (both triangles stored; `parent`: its elimination tree, which
+// Factors A (only its lower triangle is read; `parent`: its elimination tree, which
 // must be postordered, see above). Supernodes never span two parts
 // [bounds[k], bounds[k+1]). Returns false (L cleared) if A is not positive
 // definite.

@@ -2,28 +2,14 @@
 
 #include <algorithm>
 
+#include "prefault.h"
+
 namespace arap {
 
 namespace {
 
-struct Graph {
-  std::vector<int> begin, adjacent;
-  int degree(int v) const { return begin[v + 1] - begin[v]; }
-};
-
-Graph make_graph(int n, const std::vector<WeightedEdge>& edges) {
-  Graph g;
-  g.begin.assign(n + 1, 0);
-  for (const auto& e : edges) ++g.begin[e.i + 1], ++g.begin[e.j + 1];
-  for (int v = 0; v < n; ++v) g.begin[v + 1] += g.begin[v];
-  g.adjacent.resize(g.begin[n]);
-  std::vector<int> fill(g.begin.begin(), g.begin.end() - 1);
-  for (const auto& e : edges) g.adjacent[fill[e.i]++] = e.j, g.adjacent[fill[e.j]++] = e.i;
-  return g;
-}
-
 // Breadth-first order from `start` into `out`; marks visited. Returns the last vertex reached.
-int breadth_first(const Graph& g, int start, std::vector<char>& visited, std::vector<int>& out, bool by_degree) {
+int breadth_first(const EdgeGraph& g, int start, std::vector<char>& visited, std::vector<int>& out, bool by_degree) {
   const size_t first = out.size();
   visited[start] = 1;
   out.push_back(start);
@@ -41,8 +27,26 @@ int breadth_first(const Graph& g, int start, std::vector<char>& visited, std::ve
 
 }  // namespace
 
-std::vector<int> locality_order(int n, const std::vector<WeightedEdge>& edges) {
-  const Graph g = make_graph(n, edges);
+EdgeGraph edge_graph(int n, const std::vector<WeightedEdge>& edges) {
+  EdgeGraph g;
+  g.begin.assign(n + 1, 0);
+  for (const auto& e : edges) ++g.begin[e.i + 1], ++g.begin[e.j + 1];
+  for (int v = 0; v < n; ++v) g.begin[v + 1] += g.begin[v];
+  g.adjacent.resize(g.begin[n]);
+  g.weight.resize(g.begin[n]);
+  prefault_buffer(g.adjacent);
+  prefault_buffer(g.weight);
+  std::vector<int> fill(g.begin.begin(), g.begin.end() - 1);
+  for (const auto& e : edges) {
+    const int a = fill[e.i]++, b = fill[e.j]++;
+    g.adjacent[a] = e.j, g.weight[a] = e.w;
+    g.adjacent[b] = e.i, g.weight[b] = e.w;
+  }
+  return g;
+}
+
+std::vector<int> locality_order(const EdgeGraph& g) {
+  const int n = static_cast<int>(g.begin.size()) - 1;
   std::vector<char> visited(n, 0), probe_visited(n, 0);
   std::vector<int> order, probe;
   order.reserve(n);

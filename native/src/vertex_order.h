@@ -6,10 +6,23 @@
 #include <vector>
 
 #include "arap/weights.h"
+#include "default_init.h"
 
 namespace arap {
 
+// Both directions of every edge, by vertex (compressed rows): vertex v's
+// neighbours are adjacent[begin[v] .. begin[v + 1]), in the order their edges
+// come in the list (by increasing neighbour for edge_weights()' sorted list),
+// with the edge's weight.
+struct EdgeGraph {
+  std::vector<int> begin;
+  UninitializedVector<int> adjacent;
+  UninitializedVector<double> weight;
+  int degree(int v) const { return begin[v + 1] - begin[v]; }
+};
+EdgeGraph edge_graph(int vertex_count, const std::vector<WeightedEdge>& edges);
+
 // Returns new -> old: the vertex visited k-th is order[k]. Every vertex appears once.
-std::vector<int> locality_order(int vertex_count, const std::vector<WeightedEdge>& edges);
+std::vector<int> locality_order(const EdgeGraph& graph);
 
 }  // namespace arap

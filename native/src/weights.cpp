@@ -5,6 +5,8 @@
 #include <Eigen/Geometry>
 
 #include "arap/mesh_check.h"
+#include "default_init.h"
+#include "prefault.h"
 
 namespace arap {
 
@@ -23,18 +25,28 @@ std::vector<WeightedEdge> edge_weights(
     const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& rest,
     const Eigen::Ref<const Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>& triangles, Weights kind,
     EdgeCounts* counts) {
-  std::vector<EdgeEntry> entries;
-  entries.reserve(3 * static_cast<size_t>(triangles.rows()));
+  // Each triangle's three edges, grouped by their smaller index: a counting
+  // pass over the indices (every triangle, so a group may keep unused room
+  // for degenerate ones), then the weights written straight into the groups.
+  const int n = static_cast<int>(rest.rows());
+  std::vector<int> group_begin(n + 1, 0);
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f)
+    for (int k = 0; k < 3; ++k) ++group_begin[std::min(triangles(f, (k + 1) % 3), triangles(f, (k + 2) % 3)) + 1];
+  for (int v = 0; v < n; ++v) group_begin[v + 1] += group_begin[v];
+  UninitializedVector<EdgeEntry> grouped(group_begin[n]);  // written before it is read
+  prefault_buffer(grouped);
+  std::vector<int> group_end(group_begin.begin(), group_begin.end() - 1);
   int degenerate = 0;
   for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
     const int idx[3] = {triangles(f, 0), triangles(f, 1), triangles(f, 2)};
     const Eigen::Vector3d p[3] = {rest.row(idx[0]), rest.row(idx[1]), rest.row(idx[2])};
-    if (is_degenerate_triangle(p[0], p[1], p[2])) {
+    // |u x v| is twice the area at every corner: cot = (u . v) / |u x v| needs one square root.
+    const double twice_area = twice_area_unless_degenerate(p[0], p[1], p[2]);
+    if (twice_area == 0) {
       ++degenerate;
       continue;
     }
-    // |u x v| is twice the area at every corner: cot = (u . v) / |u x v| needs one square root.
-    const double inv_twice_area = 1.0 / (p[1] - p[0]).cross(p[2] - p[0]).norm();
+    const double inv_twice_area = 1.0 / twice_area;
     for (int k = 0; k < 3; ++k) {
       // The edge opposite corner k.
       const int a = (k + 1) % 3, b = (k + 2) % 3;
@@ -43,24 +55,17 @@ std::vector<WeightedEdge> edge_weights(
         const double c = (p[a] - p[k]).dot(p[b] - p[k]) * inv_twice_area;
         w = 0.5 * (kind == Weights::CotanClamped ? std::max(c, 0.0) : c);
       }
-      entries.push_back({std::min(idx[a], idx[b]), std::max(idx[a], idx[b]), w});
+      const int i = std::min(idx[a], idx[b]);
+      grouped[group_end[i]++] = {i, std::max(idx[a], idx[b]), w};
     }
   }
-  // Group by the smaller index with a counting pass, then sort each small group by the larger.
-  const int n = static_cast<int>(rest.rows());
-  std::vector<int> group_begin(n + 1, 0);
-  for (const auto& e : entries) ++group_begin[e.i + 1];
-  for (int v = 0; v < n; ++v) group_begin[v + 1] += group_begin[v];
-  std::vector<EdgeEntry> grouped(entries.size());
-  {
-    std::vector<int> fill(group_begin.begin(), group_begin.end() - 1);
-    for (const auto& e : entries) grouped[fill[e.i]++] = e;
-  }
+  // Each small group sorted by the larger index; repeated edges summed.
   std::vector<WeightedEdge> edges;
-  edges.reserve(entries.size() / 2 + 1);
+  edges.reserve(group_begin[n] / 2 + 1);
+  prefault(edges.data(), sizeof(WeightedEdge) * edges.capacity());
   int nonmanifold = 0;
   for (int v = 0; v < n; ++v) {
-    auto first = grouped.begin() + group_begin[v], last = grouped.begin() + group_begin[v + 1];
+    EdgeEntry *first = grouped.data() + group_begin[v], *last = grouped.data() + group_end[v];
     std::sort(first, last);
     for (auto s = first; s != last;) {
       auto e = s;

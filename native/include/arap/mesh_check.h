@@ -68,5 +68,7 @@ int label_components(const Eigen::Ref<const Points>& rest, const Eigen::Ref<cons
                      std::vector<int>& component_of_vertex);
 
 bool is_degenerate_triangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c);
+// |(b - a) x (c - a)|, twice the triangle's area, or 0 when it is degenerate.
+double twice_area_unless_degenerate(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c);
 
 }  // namespace arap
