@@ -5,6 +5,11 @@
 #if defined(__linux__)
 #include <sys/mman.h>
 #include <unistd.h>
+// Linux 5.14's value: older C library headers (Debian 11's, where the distributed
+// module is built) lack the name; an older kernel refuses the advice (EINVAL), harmlessly.
+#ifndef MADV_POPULATE_WRITE
+#define MADV_POPULATE_WRITE 23
+#endif
 #endif
 
 namespace arap {
