@@ -57,7 +57,7 @@ double squared_norm_in(const Eigen::SparseMatrix<double>& A, const double* s, in
 }
 
 // Pairs of (s, y) the quasi-Newton method remembers. On dino (H0 scaled, see
-// qn_gamma) 3, 4, 6, 8 and 10 pairs reach the band in 72, 61, 60, 60 and 61
+// qn_gamma) 3, 4, 6, 8 and 10 pairs reach the band in 73, 62, 61, 61 and 62
 // iterations; each pair costs two passes over the free positions, so 4 is as
 // quick as any in CPU time.
 constexpr int kQuasiNewtonHistory = 4;
@@ -112,8 +112,8 @@ struct Solver::Impl {
   // Nocedal & Wright scale H0 = gamma I by the last pair (eq. 7.20), we scale
   // L^-1 by that quotient: of the two Barzilai-Borwein quotients in L's metric,
   // the one that needs a product with L, not a solve. It is the larger of the
-  // two, so it is kept in [1, 2] (dino: 75 iterations to the band unscaled, 61
-  // with a cap of 2 or 3, 110 with 5; with no pair stored the step stays plain).
+  // two, so it is kept in [1, 2] (dino: 76 iterations to the band unscaled, 62
+  // with a cap of 2, 63 with 3, 111 with 5; with no pair stored the step stays plain).
   double qn_gamma = 1.0;
   double qn_slope = 0;    // dE/dalpha along qn_d, the direction of the next step
   Points last_targets;
