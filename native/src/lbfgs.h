@@ -70,7 +70,7 @@ double LbfgsHistory::direction(const double* g, double* d, const Preconditioner&
                                double h0_scale) {
   const Eigen::Index n = s_.rows();
   double* q = d;
-  // q[i] <- f(q[i], i) and z.q, over the halves (z may be null).
+  // q[i] <- f(i, q[i]) and z.q, over the halves (z may be null).
   auto pass = [&](const auto& f, const double* z) {
     return sum_over_halves(n, threads, [&](std::ptrdiff_t b, std::ptrdiff_t e) {
       return lbfgs_detail::map_dot(q + b, [&](Eigen::Index i, double v) { return f(b + i, v); }, z ? z + b : nullptr,

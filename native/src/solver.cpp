@@ -42,7 +42,8 @@ double squared_norm_in(const Eigen::SparseMatrix<double>& A, const double* s, in
   const int* outer = A.outerIndexPtr();
   const int* inner = A.innerIndexPtr();
   const double* value = A.valuePtr();
-  return sum_over_halves(3 * static_cast<std::ptrdiff_t>(A.cols()), threads, [&](std::ptrdiff_t begin, std::ptrdiff_t end) {
+  const std::ptrdiff_t length = 3 * static_cast<std::ptrdiff_t>(A.cols());
+  return sum_over_halves(length, threads, [&](std::ptrdiff_t begin, std::ptrdiff_t end) {
     double sum = 0;
     for (std::ptrdiff_t c = begin / 3; c < end / 3; ++c) {
       double ax = 0, ay = 0, az = 0;
