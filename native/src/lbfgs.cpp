@@ -8,6 +8,7 @@ void LbfgsHistory::reset(int capacity, Eigen::Index dimension) {
   capacity_ = capacity;
   stored_ = 0;
   newest_ = -1;
+  h0_scale_ = 1;
   s_.resize(dimension, capacity);
   y_.resize(dimension, capacity);
   rho_.resize(capacity);

@@ -18,7 +18,7 @@ class LbfgsHistory {
  public:
   // Forget every pair and size the buffers (allocates; not in the loop).
   void reset(int capacity, Eigen::Index dimension);
-  void clear() { stored_ = 0; }
+  void clear() { stored_ = 0, h0_scale_ = 1; }
   int stored() const { return stored_; }
 
   // Where the caller writes the next pair s = x_{k+1} - x_k, y = g_{k+1} - g_k
@@ -27,19 +27,23 @@ class LbfgsHistory {
   double* next_s();
   double* next_y();
   bool commit(double sy, double ss, double yy);
+  // H0 = scale * P from now on (the caller's estimate from the pair just
+  // committed); back to 1 when the history is cleared or reset.
+  void set_h0_scale(double scale) { h0_scale_ = scale; }
 
-  // d = -H g, H the L-BFGS inverse Hessian on H0 = h0_scale * P, P applied by
-  // preconditioner(v) (in place: v <- P v); h0_scale only counts once a pair is
-  // stored (with none, d = -P g exactly). Returns g.d, the directional
-  // derivative of half the energy. Long vectors are streamed in two halves, on
-  // two threads if `threads` > 1 (the same result either way, see vector_halves.h).
+  // d = -H g, H the L-BFGS inverse Hessian on H0 = scale * P (set_h0_scale),
+  // P applied by preconditioner(v) (in place: v <- P v); the scale only counts
+  // once a pair is stored (with none, d = -P g exactly). Returns g.d, the
+  // directional derivative of half the energy. Long vectors are streamed in two
+  // halves, on two threads if `threads` > 1 (the same result either way, see
+  // vector_halves.h).
   template <class Preconditioner>
-  double direction(const double* g, double* d, const Preconditioner& preconditioner, int threads = 1,
-                   double h0_scale = 1.0);
+  double direction(const double* g, double* d, const Preconditioner& preconditioner, int threads = 1);
 
  private:
   int column(int k) const { return (newest_ - k + capacity_) % capacity_; }  // k = 0: newest
   int capacity_ = 0, stored_ = 0, newest_ = -1;
+  double h0_scale_ = 1;
   Eigen::MatrixXd s_, y_;        // dimension by capacity, used as rings
   Eigen::VectorXd rho_, alpha_;  // 1 / (s.y) per pair; first-loop coefficients
 };
@@ -66,8 +70,7 @@ double map_dot(double* q, const F& f, const double* z, Eigen::Index n) {
 }  // namespace lbfgs_detail
 
 template <class Preconditioner>
-double LbfgsHistory::direction(const double* g, double* d, const Preconditioner& preconditioner, int threads,
-                               double h0_scale) {
+double LbfgsHistory::direction(const double* g, double* d, const Preconditioner& preconditioner, int threads) {
   const Eigen::Index n = s_.rows();
   double* q = d;
   // q[i] <- f(i, q[i]) and z.q, over the halves (z may be null).
@@ -90,10 +93,10 @@ double LbfgsHistory::direction(const double* g, double* d, const Preconditioner&
     const double* s_next = k + 1 < stored_ ? s_.col(column(k + 1)).data() : nullptr;
     dot = update(-a, y_.col(c).data(), s_next);
   }
-  preconditioner(q);  // r = H0 q = h0_scale P q: the scale is applied in the pass that takes the next dot
+  preconditioner(q);  // r = H0 q = h0_scale_ P q: the scale is applied in the pass that takes the next dot
   // Second loop, oldest to newest: beta_i = rho_i y_i.r, r <- r + (alpha_i - beta_i) s_i.
   if (stored_ > 0)
-    dot = pass([&](std::ptrdiff_t, double v) { return h0_scale * v; }, y_.col(column(stored_ - 1)).data());
+    dot = pass([&](std::ptrdiff_t, double v) { return h0_scale_ * v; }, y_.col(column(stored_ - 1)).data());
   for (int k = stored_ - 1; k >= 0; --k) {
     const int c = column(k);
     const double* y_next = k > 0 ? y_.col(column(k - 1)).data() : nullptr;

@@ -58,14 +58,23 @@ double squared_norm_in(const Eigen::SparseMatrix<double>& A, const double* s, in
 }
 
 // Pairs of (s, y) the quasi-Newton method remembers. On dino (H0 scaled, see
-// qn_gamma) 3, 4, 6, 8 and 10 pairs reach the band in 73, 62, 61, 61 and 62
+// kMaxH0Scale) 3, 4, 6, 8 and 10 pairs reach the band in 73, 62, 61, 61 and 62
 // iterations; each pair costs two passes over the free positions, so 4 is as
 // quick as any in CPU time.
 constexpr int kQuasiNewtonHistory = 4;
 // Armijo's sufficient-decrease constant and the most trial points per iteration.
 constexpr double kArmijo = 1e-4;
 constexpr int kLineSearchTrials = 3;
-// Largest scale of the initial inverse Hessian H0 = gamma L^-1 (see qn_gamma).
+// The L-BFGS initial inverse Hessian is gamma L^-1, gamma set after each pair
+// the history keeps. The energy's Hessian is L less what the turning rotations
+// give back (with fixed rotations the half gradient is L p - b), so along a
+// step s the Laplacian overrates the curvature by gamma = s.Ls / s.y (>= 1
+// where no cell is inverted). As Nocedal & Wright scale H0 = gamma I by the
+// last pair (eq. 7.20), we scale L^-1 by that quotient: of the two
+// Barzilai-Borwein quotients in L's metric, the one that needs a product with
+// L, not a solve. It is the larger of the two, so it is kept in [1, kMaxH0Scale]
+// (dino: 76 iterations to the band unscaled, 62 with a cap of 2, 63 with 3, 111
+// with 5; with no pair stored the step stays plain).
 constexpr double kMaxH0Scale = 2.0;
 // Volume::Global: halvings of a plain step whose return onto the volume
 // constraint raised the energy (the step itself lowers it to first order).
@@ -106,16 +115,6 @@ struct Solver::Impl {
   bool qn_resumable = false;
   double qn_energy = 0;
   bool qn_plain = false;  // qn_d is the plain step
-  // The L-BFGS initial inverse Hessian is gamma L^-1. The energy's Hessian is L
-  // less what the turning rotations give back (with fixed rotations the half
-  // gradient is L p - b), so along a step s the Laplacian overrates the
-  // curvature by gamma = s.Ls / s.y (>= 1 where no cell is inverted). As
-  // Nocedal & Wright scale H0 = gamma I by the last pair (eq. 7.20), we scale
-  // L^-1 by that quotient: of the two Barzilai-Borwein quotients in L's metric,
-  // the one that needs a product with L, not a solve. It is the larger of the
-  // two, so it is kept in [1, 2] (dino: 76 iterations to the band unscaled, 62
-  // with a cap of 2, 63 with 3, 111 with 5; with no pair stored the step stays plain).
-  double qn_gamma = 1.0;
   double qn_slope = 0;    // dE/dalpha along qn_d, the direction of the next step
   Points last_targets;
   // Volume::Global (see volume.h): the constraint, and at qn_x its gradient n
@@ -162,7 +161,6 @@ struct Solver::Impl {
     const size_t nf3 = 3 * mesh.free_vertices.size();
     qn_x.resize(nf3), qn_g.resize(nf3), qn_d.resize(nf3);
     lbfgs.reset(kQuasiNewtonHistory, static_cast<Eigen::Index>(nf3));
-    qn_gamma = 1.0;
     gather_free(qn_x);
     const auto t = Clock::now();
     half_gradient(mesh, state.data(), rotations.data(), qn_g.data(), options.threads);
@@ -237,7 +235,7 @@ struct Solver::Impl {
       const auto ts = Clock::now();
       laplacian.solve_in_place(v, work, options.threads);
       solve_ms += ms_since(ts);
-    }, options.threads, qn_gamma);
+    }, options.threads);
     stats.linear_solve_ms += solve_ms;
     stats.direction_ms += ms_since(t) - solve_ms;
     if (volume.active()) {
@@ -322,7 +320,7 @@ struct Solver::Impl {
                   });
     const double sy = sums[0][0] + sums[1][0], ss = sums[0][1] + sums[1][1], yy = sums[0][2] + sums[1][2];
     if (qn_history && lbfgs.commit(sy, ss, yy))
-      qn_gamma = std::clamp(squared_norm_in(mesh.laplacian_ff, s, options.threads) / sy, 1.0, kMaxH0Scale);
+      lbfgs.set_h0_scale(std::clamp(squared_norm_in(mesh.laplacian_ff, s, options.threads) / sy, 1.0, kMaxH0Scale));
     if (volume.active()) gather_free(qn_x);  // exactly where the step landed (x + s rounds)
     stats.direction_ms += ms_since(t);
     return next;

@@ -58,7 +58,8 @@ TEST(Lbfgs, DirectionIsMinusTheUpdatedInverseHessianTimesTheGradientWithAScaledH
   const Eigen::VectorXd g = random_vector(rng);
   for (const double scale : {1.0, 1.7}) {
     Eigen::VectorXd d(kDimension);
-    const double slope = history.direction(g.data(), d.data(), P, 1, scale);
+    history.set_h0_scale(scale);
+    const double slope = history.direction(g.data(), d.data(), P);
     const Eigen::MatrixXd H0 = scale * Eigen::MatrixXd(P.p.asDiagonal());
     const Eigen::VectorXd expected = -dense_inverse_hessian(H0, s, y) * g;
     EXPECT_LT((d - expected).norm(), 1e-12 * expected.norm()) << "scale " << scale;
@@ -66,7 +67,7 @@ TEST(Lbfgs, DirectionIsMinusTheUpdatedInverseHessianTimesTheGradientWithAScaledH
   }
   // The secant condition of the newest pair holds whatever H0 is: H y = s.
   Eigen::VectorXd d(kDimension);
-  history.direction(y.back().data(), d.data(), P, 1, 1.7);
+  history.direction(y.back().data(), d.data(), P);  // the scale is still 1.7
   EXPECT_LT((d + s.back()).norm(), 1e-12 * s.back().norm());
 }
 
@@ -77,8 +78,29 @@ TEST(Lbfgs, WithNoPairStoredTheDirectionIsThePreconditionedStepWhateverTheScale)
   history.reset(4, kDimension);
   const Eigen::VectorXd g = random_vector(rng);
   Eigen::VectorXd d(kDimension);
-  history.direction(g.data(), d.data(), P, 1, 1.7);
+  history.set_h0_scale(1.7);
+  history.direction(g.data(), d.data(), P);
   EXPECT_EQ(d, Eigen::VectorXd(-P.p.cwiseProduct(g)));
+}
+
+TEST(Lbfgs, ClearingTheHistoryResetsTheScale) {
+  std::mt19937 rng(13);
+  Diagonal P{random_vector(rng).cwiseAbs().array() + 0.5};
+  arap::LbfgsHistory scaled, fresh;
+  for (arap::LbfgsHistory* h : {&scaled, &fresh}) h->reset(2, kDimension);
+  scaled.set_h0_scale(1.7);
+  scaled.clear();
+  // The same pair in both: the direction is the same only if clear() forgot the scale.
+  const Eigen::VectorXd s = random_vector(rng), y = 2.0 * s, g = random_vector(rng);
+  for (arap::LbfgsHistory* h : {&scaled, &fresh}) {
+    Eigen::Map<Eigen::VectorXd>(h->next_s(), kDimension) = s;
+    Eigen::Map<Eigen::VectorXd>(h->next_y(), kDimension) = y;
+    ASSERT_TRUE(h->commit(s.dot(y), s.squaredNorm(), y.squaredNorm()));
+  }
+  Eigen::VectorXd a(kDimension), b(kDimension);
+  scaled.direction(g.data(), a.data(), P);
+  fresh.direction(g.data(), b.data(), P);
+  EXPECT_EQ(a, b);
 }
 
 }  // namespace
