@@ -8,13 +8,11 @@
 #include <Eigen/SparseCholesky>
 
 #include "prefault.h"
+#include "vector_halves.h"
 
 namespace arap {
 
 namespace {
-
-// Below this many rows the solve is too short for a second thread: no split.
-constexpr Eigen::Index kSplitRows = 20000;
 
 using Permutation = Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int>;
 

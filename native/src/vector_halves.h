@@ -10,8 +10,11 @@
 
 namespace arap {
 
-// 3 x 20 000 free vertices: where the Laplacian's triangular solves split too.
-constexpr std::ptrdiff_t kSplitLength = 60000;
+// From this many free vertices the Laplacian's factor is split in two halves
+// and a separator (block_cholesky.h) and these vector passes run in halves:
+// below it a solve or a pass is too short for a second thread.
+constexpr std::ptrdiff_t kSplitRows = 20000;
+constexpr std::ptrdiff_t kSplitLength = 3 * kSplitRows;  // x, y, z of each free vertex
 
 // body(begin, end, half) for half 0 = [0, mid) and half 1 = [mid, n).
 template <class Body>
