@@ -128,9 +128,12 @@ InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<
   for (const auto& list : parts.vertices)
     for (int v : list) lo = lo.cwiseMin(rest.row(v).transpose()), hi = hi.cwiseMax(rest.row(v).transpose());
   const double longest = parts.vertices.empty() ? 0.0 : (hi - lo).maxCoeff();
-  if (!(longest > 0)) return out;
   Grid grid;
   grid.h = longest / resolution;
+  // A flat mesh, or one whose faces span less than a normal double's worth of cubes next to a far
+  // vertex no face uses (coordinates arrive scaled to the largest), carries no lattice: it is
+  // solved as the surface, as an open mesh is.
+  if (!std::isnormal(grid.h)) return out;
   for (int d = 0; d < 3; ++d) grid.dims[d] = std::max(1, static_cast<int>(std::ceil((hi[d] - lo[d]) / grid.h - 1e-9)));
   grid.origin = 0.5 * (lo + hi) - 0.5 * grid.h * grid.dims.cast<double>();
   out.spacing = grid.h;

@@ -214,6 +214,25 @@ TEST(VolumeModes, BadIndicesAndPositionsAreTypedErrorsBeforeTheLatticeIsBuilt) {
   }
 }
 
+// Found by fuzz_solve: faces spanning a few denormals beside a far vertex no face uses made
+// the lattice spacing 0 and its cube count an infinite int. Such a mesh carries no lattice.
+TEST(VolumeInfill, FacesTooSmallForALatticeAreSolvedAsTheSurface) {
+  const double tiny = 2 * std::numeric_limits<double>::denorm_min();  // the bind scales to the largest, 1
+  Points rest(5, 3);
+  rest << 0, 0, 0, tiny, 0, 0, 0, tiny, 0, 0, 0, tiny, 1, 0, 0;
+  Triangles tetrahedron(4, 3);
+  tetrahedron << 0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3;
+  Options o;
+  o.volume = Volume::Infill;
+  arap::Solver solver;
+  solver.bind(rest, tetrahedron, {0, 4}, o);
+  Points targets(2, 3);
+  targets << 0, 0, 0, 2, 0, 0;
+  solver.solve(targets);
+  EXPECT_TRUE(solver.positions().allFinite());
+  EXPECT_EQ(solver.positions().row(4), targets.row(1));
+}
+
 // ------------------------------------------------------------------ Infill
 
 TEST(VolumeInfill, KeepsMoreVolumeAndCrossSectionThanTheSurface) {
