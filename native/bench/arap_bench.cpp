@@ -49,6 +49,7 @@ struct Args {
   bool time_to_band = false;
   int band_iterations = 2000;
   int band_extend = 0;
+  double band_cap = 0;
 };
 
 const char* kUsage = R"(usage: arap-bench [options] [mesh.off|.obj|.ply|scenario.json ...]
@@ -76,6 +77,9 @@ const char* kUsage = R"(usage: arap-bench [options] [mesh.off|.obj|.ply|scenario
   --band-extend N        local-global and quasi-newton runs not in the band within the budget go on
                          (resumed exactly, by warm starts) up to N iterations to find when they enter
                          it (marked * in band.md; default 0: off)
+  --band-cap R           the other methods' extended runs, and CGAL, stop once their CPU time passes R
+                         times quasi-newton's time to the band ("> t", so the ratio is below 1/R), and a
+                         solve to the band that alone takes longer is timed once (default 0: off)
 )";
 
 std::vector<std::string> split(const std::string& s) {
@@ -134,6 +138,8 @@ Args parse_args(int argc, char** argv) {
       a.band_iterations = std::max(1, std::stoi(value()));
     } else if (flag == "--band-extend") {
       a.band_extend = std::max(0, std::stoi(value()));
+    } else if (flag == "--band-cap") {
+      a.band_cap = std::max(0.0, std::stod(value()));
     } else if (!flag.empty() && flag[0] == '-') {
       throw std::runtime_error("unknown option " + flag + "\n" + kUsage);
     } else {
@@ -493,8 +499,13 @@ void write_band_results(const json& doc, const std::filesystem::path& dir) {
         "resuming the reference run (warm starts continue local-global and quasi-newton exactly) in 100-iteration "
         "chunks, up to --band-extend iterations; its CPU time is the reference run's plus the chunks' (the last "
         "one pro rata). CGAL: the sum of its deform(1, 0) calls' CPU time (one run). Defaults: "
-        "quasi-newton with the library's default tolerance (1e-6) and cap.\n\n"
-     << bench::band_table(doc["meshes"]);
+        "quasi-newton with the library's default tolerance (1e-6) and cap.";
+  const double cap = doc["settings"]["band_cap"].get<double>();
+  if (cap > 0)
+    md << " With --band-cap " << cap << ": the resumed runs and CGAL stop once their CPU time passes " << cap
+       << "x quasi-newton's time to the band (\"> t\" then bounds the ratio below 1/" << cap
+       << "), and a solve to the band that alone takes longer than that is timed once.";
+  md << "\n\n" << bench::band_table(doc["meshes"]);
 }
 
 std::string now_utc() {
@@ -533,7 +544,8 @@ int main(int argc, char** argv) {
                   {"cgal_iterations", args.cgal_iterations},
                   {"repeat_seconds", args.repeat_seconds},
                   {"band_iterations", args.band_iterations},
-                  {"band_extend", args.band_extend}}},
+                  {"band_extend", args.band_extend},
+                  {"band_cap", args.band_cap}}},
                 {"peak_reset_works", peak_reset_works()},
 #ifdef ARAP_BENCH_HAVE_CGAL
                 {"cgal_available", true},
@@ -552,6 +564,7 @@ int main(int argc, char** argv) {
         bench::BandSettings band;
         band.reference_iterations = args.band_iterations;
         band.extend_iterations = args.band_extend;
+        band.cap_ratio = args.band_cap;
         band.cgal = args.cgal;
         band.cgal_max_vertices = args.cgal_max_vertices;
         doc["meshes"].push_back(bench::time_to_band(c, band));

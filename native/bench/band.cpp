@@ -67,13 +67,14 @@ double timed_solve(arap::Solver& s, const Case& c, int repeats, arap::SolveStats
 // last solve stopped (rotations, and the L-BFGS history, kept), each chunk's
 // CPU time measured. The chunk that enters the band is counted pro rata (the
 // iterations of one method cost alike). Returns {iterations, CPU ms} to the
-// band from the cold start, or {0, ms spent} when it never got there.
+// band from the cold start, or {0, ms spent} when it never got there (within
+// `extend_iterations`, or before its CPU time passed `cpu_ms_cap`).
 std::pair<int, double> resume_into_band(arap::Solver& s, const Case& c, double limit, int iterations, double cpu_ms,
-                                        int extend_iterations) {
+                                        int extend_iterations, double cpu_ms_cap) {
   constexpr int kChunk = 100;
   s.options().init = arap::InitialGuess::WarmStart;
   s.options().tolerance = 1e-14;
-  while (iterations < extend_iterations) {
+  while (iterations < extend_iterations && cpu_ms <= cpu_ms_cap) {
     s.options().max_iterations = std::min(kChunk, extend_iterations - iterations);
     const double t = thread_cpu_ms();
     const arap::SolveStats st = s.solve(c.targets);
@@ -109,7 +110,13 @@ json time_to_band(const Case& c, const BandSettings& settings) {
                     {"reference_cpu_ms", reference_cpu_ms}});
   }
   const double limit = best + settings.band * std::abs(best);
-  for (size_t i = 0; i < solvers.size(); ++i) {
+  // The default method first: its time to the band sets the others' cap.
+  std::vector<size_t> order(solvers.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_partition(order.begin(), order.end(),
+                        [](size_t i) { return kMethods[i].method == arap::Options().method; });
+  double cpu_ms_cap = std::numeric_limits<double>::infinity();
+  for (size_t i : order) {
     json& r = runs[i];
     arap::Solver& s = solvers[i];
     int k = first_in_band(r["energy"].get<std::vector<double>>(), limit);
@@ -118,11 +125,16 @@ json time_to_band(const Case& c, const BandSettings& settings) {
     if (k) {
       s.options().max_iterations = k;
       s.options().tolerance = 0;
-      r["cpu_ms_to_band"] = timed_solve(s, c, settings.repeats, nullptr);
+      // A solve that alone passes the cap (its share of the reference run) is timed once, not `repeats` times.
+      const double one_solve_ms = r["reference_cpu_ms"].get<double>() * k / r["reference_iterations"].get<int>();
+      const int repeats = one_solve_ms > cpu_ms_cap ? 1 : settings.repeats;
+      r["cpu_ms_to_band"] = timed_solve(s, c, repeats, nullptr);
+      r["timed_solves"] = repeats;
     } else if (settings.extend_iterations > settings.reference_iterations &&
                kMethods[i].method != arap::Method::Anderson) {  // Anderson's warm start does not resume its history
-      const auto [extended_k, ms] = resume_into_band(s, c, limit, r["reference_iterations"].get<int>(),
-                                                      r["reference_cpu_ms"].get<double>(), settings.extend_iterations);
+      const auto [extended_k, ms] =
+          resume_into_band(s, c, limit, r["reference_iterations"].get<int>(), r["reference_cpu_ms"].get<double>(),
+                           settings.extend_iterations, cpu_ms_cap);
       k = extended_k;
       r["extended"] = true;
       r["iterations_to_band"] = k;
@@ -135,6 +147,7 @@ json time_to_band(const Case& c, const BandSettings& settings) {
               << (k ? r["cpu_ms_to_band"].get<double>() : r["cpu_ms_budget"].get<double>())
               << (k ? " CPU ms to the band" : " CPU ms without reaching it") << std::endl;
     if (kMethods[i].method != arap::Options().method) continue;
+    if (k && settings.cap_ratio > 0) cpu_ms_cap = settings.cap_ratio * r["cpu_ms_to_band"].get<double>();
     // The defaults a user gets (the default method, its tolerance stop and safety cap).
     s.options() = arap::Options();
     arap::SolveStats st;
@@ -150,6 +163,7 @@ json time_to_band(const Case& c, const BandSettings& settings) {
   }
   json out = {{"name", c.name}, {"vertices", c.rest.rows()}, {"best_energy", best}, {"band_limit", limit},
               {"runs", runs}, {"cgal", nullptr}};
+  if (std::isfinite(cpu_ms_cap)) out["cpu_ms_cap"] = cpu_ms_cap;
 #ifdef ARAP_BENCH_HAVE_CGAL
   if (settings.cgal && c.rest.rows() <= settings.cgal_max_vertices) {
     // CGAL's k-th iteration is our (k-1)-th from the Laplacian guess; it follows plain local/global, so
@@ -159,7 +173,8 @@ json time_to_band(const Case& c, const BandSettings& settings) {
     arap::Solver evaluator = bound(c, arap::Method::LocalGlobal);
     std::vector<double> energy;
     const CgalResult res = run_cgal_arap(c.rest, c.triangles, c.constrained, c.targets, budget,
-                                         [&](const arap::Points& p) { energy.push_back(evaluator.energy(p)); });
+                                         [&](const arap::Points& p) { energy.push_back(evaluator.energy(p)); },
+                                         cpu_ms_cap);
     json cg = {{"iterations_run", res.iteration_cpu_ms.size()}};
     if (!res.ok) {
       cg["error"] = res.error;

@@ -23,6 +23,10 @@ struct BandSettings {
   // (resumed by warm starts, which continue them exactly) up to this many
   // iterations to find when they enter it; E* stays the budget's. 0: off.
   int extend_iterations = 0;
+  // The other methods (and CGAL) stop once their CPU time passes this many times what the
+  // default method took to the band: "> t" then still bounds the ratio (below 1 / cap_ratio),
+  // without hours of plain iterations on the largest meshes. 0: off.
+  double cap_ratio = 0;
 };
 
 // One mesh: every method's energies over the budget, E*, iterations and

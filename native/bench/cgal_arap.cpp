@@ -24,7 +24,7 @@ double ms_since(Clock::time_point t) {
 
 CgalResult run_cgal_arap(const arap::Points& rest, const arap::Triangles& triangles,
                          const std::vector<int>& constrained, const arap::Points& targets, int iterations,
-                         const std::function<void(const arap::Points&)>& after_iteration) {
+                         const std::function<void(const arap::Points&)>& after_iteration, double cpu_ms_limit) {
   CgalResult result;
   auto t = Clock::now();
   Mesh mesh;
@@ -57,11 +57,13 @@ CgalResult run_cgal_arap(const arap::Points& rest, const arap::Triangles& triang
     deformation.set_target_position(vertex[constrained[s]], Kernel::Point_3(row[0], row[1], row[2]));
   }
   arap::Points positions(rest.rows(), 3);
-  for (int k = 0; k < iterations; ++k) {
+  double iterations_cpu_ms = 0;
+  for (int k = 0; k < iterations && iterations_cpu_ms <= cpu_ms_limit; ++k) {
     t = Clock::now();
     const double cpu = thread_cpu_ms();
     deformation.deform(1, 0.0);
     result.iteration_cpu_ms.push_back(thread_cpu_ms() - cpu);
+    iterations_cpu_ms += result.iteration_cpu_ms.back();
     result.iteration_ms.push_back(ms_since(t));
     if (after_iteration) {
       for (Eigen::Index i = 0; i < rest.rows(); ++i) {

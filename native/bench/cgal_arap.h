@@ -4,6 +4,7 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -25,8 +26,10 @@ struct CgalResult {
 // control vertex (fixed ones keep their rest position as target), so the
 // problem is the one our solver gets. Runs `iterations` calls of deform(1, 0);
 // after each one, `after_iteration` receives the current positions (untimed).
+// Stops early once the iterations' CPU time passes `cpu_ms_limit`.
 CgalResult run_cgal_arap(const arap::Points& rest, const arap::Triangles& triangles,
                          const std::vector<int>& constrained, const arap::Points& targets, int iterations,
-                         const std::function<void(const arap::Points&)>& after_iteration);
+                         const std::function<void(const arap::Points&)>& after_iteration,
+                         double cpu_ms_limit = std::numeric_limits<double>::infinity());
 
 }  // namespace bench

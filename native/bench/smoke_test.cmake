@@ -67,3 +67,26 @@ string(JSON k GET "${plain}" iterations_to_band)
 if(NOT method STREQUAL "local-global" OR NOT extended OR k LESS_EQUAL 4)
   message(FATAL_ERROR "local-global was not resumed into the band (extended: ${extended}, iterations: ${k}):\n${plain}")
 endif()
+
+# --band-cap: the same run, but the other methods may spend only a hundredth of quasi-newton's time
+# to the band, which the 4-iteration reference run already passes: local-global is not resumed.
+execute_process(
+  COMMAND ${BENCH} --time-to-band --band-iterations 4 --band-extend 2000 --band-cap 0.01 --shapes bar --sizes 1000
+          --no-cgal --output-dir ${WORK}/band_cap
+  RESULT_VARIABLE status)
+if(NOT status EQUAL 0)
+  message(FATAL_ERROR "arap-bench --time-to-band --band-cap exited with ${status}")
+endif()
+file(READ ${WORK}/band_cap/band.json doc)
+string(JSON cap GET "${doc}" meshes 0 cpu_ms_cap)
+string(JSON plain GET "${doc}" meshes 0 runs 0)
+string(JSON k GET "${plain}" iterations_to_band)
+string(JSON budget GET "${plain}" cpu_ms_budget)
+string(JSON reference GET "${plain}" reference_cpu_ms)
+if(NOT k EQUAL 0 OR NOT budget STREQUAL reference)
+  message(FATAL_ERROR "local-global went on past the cap of ${cap} ms:\n${plain}")
+endif()
+file(READ ${WORK}/band_cap/band.md table)
+if(NOT table MATCHES "\\| bar-[0-9]+ \\| [0-9]+ \\| 0 / > [0-9.]+ \\* \\| ")
+  message(FATAL_ERROR "band.md does not show local-global stopped at the cap:\n${table}")
+endif()
