@@ -1,6 +1,14 @@
 # ctest bench_smoke: arap-bench on tiny procedural meshes and on a 12-vertex
 # box given both as an OFF file and as a scenario JSON; checks the exit code
 # and that results.md / results.json hold a row for every mesh.
+# Runs arap-bench with the arguments given; stops the test when it fails.
+function(run_bench)
+  execute_process(COMMAND ${BENCH} ${ARGN} RESULT_VARIABLE status)
+  if(NOT status EQUAL 0)
+    message(FATAL_ERROR "arap-bench ${ARGN} exited with ${status}")
+  endif()
+endfunction()
+
 file(REMOVE_RECURSE ${WORK})
 file(MAKE_DIRECTORY ${WORK})
 # 1 x 1 x 2 box with a middle ring: 12 vertices, 20 outward triangles.
@@ -20,13 +28,8 @@ file(WRITE ${WORK}/box.json
   "{\"name\": \"box-scenario\", \"mesh\": \"box.off\", \"fixed\": [0, 1, 2, 3],"
   " \"handles\": [{\"vertices\": [8, 9, 10, 11], \"translate\": [0.5, 0, 0]}]}\n")
 
-execute_process(
-  COMMAND ${BENCH} --min-vertices 300 --max-vertices 600 --iterations 6 --weights cotan,cotan-clamped
-          --threads 1,2 --anderson 3 --cgal-iterations 3 --output-dir ${WORK}/results ${WORK}/box.off ${WORK}/box.json
-  RESULT_VARIABLE status)
-if(NOT status EQUAL 0)
-  message(FATAL_ERROR "arap-bench exited with ${status}")
-endif()
+run_bench(--min-vertices 300 --max-vertices 600 --iterations 6 --weights cotan,cotan-clamped
+          --threads 1,2 --anderson 3 --cgal-iterations 3 --output-dir ${WORK}/results ${WORK}/box.off ${WORK}/box.json)
 file(READ ${WORK}/results/results.md table)
 foreach(name "sphere-[0-9]+" "bar-[0-9]+" box box-scenario)
   if(NOT table MATCHES "\\| ${name} \\| [0-9]+ \\| cotan")
@@ -40,25 +43,15 @@ if(NOT meshes EQUAL 6)
 endif()
 
 # The time-to-band mode: every method on the box scenario, a short budget.
-execute_process(
-  COMMAND ${BENCH} --time-to-band --band-iterations 40 --shapes none --output-dir ${WORK}/band ${WORK}/box.json
-  RESULT_VARIABLE status)
-if(NOT status EQUAL 0)
-  message(FATAL_ERROR "arap-bench --time-to-band exited with ${status}")
-endif()
+run_bench(--time-to-band --band-iterations 40 --shapes none --output-dir ${WORK}/band ${WORK}/box.json)
 file(READ ${WORK}/band/band.md table)
 if(NOT table MATCHES "\\| box-scenario \\| 12 \\| [0-9]+ / ")
   message(FATAL_ERROR "band.md has no row for box-scenario:\n${table}")
 endif()
 
 # --band-extend: with a budget too short for local-global, its run is resumed until it enters the band.
-execute_process(
-  COMMAND ${BENCH} --time-to-band --band-iterations 4 --band-extend 2000 --shapes bar --sizes 1000 --no-cgal
-          --output-dir ${WORK}/band_extend
-  RESULT_VARIABLE status)
-if(NOT status EQUAL 0)
-  message(FATAL_ERROR "arap-bench --time-to-band --band-extend exited with ${status}")
-endif()
+run_bench(--time-to-band --band-iterations 4 --band-extend 2000 --shapes bar --sizes 1000 --no-cgal
+          --output-dir ${WORK}/band_extend)
 file(READ ${WORK}/band_extend/band.json doc)
 string(JSON plain GET "${doc}" meshes 0 runs 0)
 string(JSON method GET "${plain}" method)
@@ -70,13 +63,8 @@ endif()
 
 # --band-cap: the same run, but the other methods may spend only a hundredth of quasi-newton's time
 # to the band, which the 4-iteration reference run already passes: local-global is not resumed.
-execute_process(
-  COMMAND ${BENCH} --time-to-band --band-iterations 4 --band-extend 2000 --band-cap 0.01 --shapes bar --sizes 1000
-          --no-cgal --output-dir ${WORK}/band_cap
-  RESULT_VARIABLE status)
-if(NOT status EQUAL 0)
-  message(FATAL_ERROR "arap-bench --time-to-band --band-cap exited with ${status}")
-endif()
+run_bench(--time-to-band --band-iterations 4 --band-extend 2000 --band-cap 0.01 --shapes bar --sizes 1000
+          --no-cgal --output-dir ${WORK}/band_cap)
 file(READ ${WORK}/band_cap/band.json doc)
 string(JSON cap GET "${doc}" meshes 0 cpu_ms_cap)
 string(JSON plain GET "${doc}" meshes 0 runs 0)
