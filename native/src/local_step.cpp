@@ -1,6 +1,7 @@
 #include "local_step.h"
 
 #include <algorithm>
+#include <atomic>
 #include <thread>
 #include <vector>
 
@@ -11,9 +12,11 @@ namespace arap {
 namespace {
 
 // Runs body(i) for i in [0, n) and returns the sum of the results. With more
-// than one thread, contiguous chunks go to short-lived std::threads that are
-// joined before returning: nothing spins afterwards (an OpenMP pool's spinning
-// workers slowed the serial triangular solve that follows on 2 busy cores).
+// than one thread, runs of kChunk vertices are handed out in turn to
+// short-lived std::threads that are joined before returning: nothing spins
+// afterwards (an OpenMP pool's spinning workers slowed the serial triangular
+// solve that follows on 2 busy cores). body(i) writes only vertex i's outputs
+// and the results are integers, so which thread ran which chunk changes nothing.
 template <class Body>
 long for_each_vertex(int n, int threads, const Body& body) {
   auto run = [&](int begin, int end) {
@@ -23,12 +26,18 @@ long for_each_vertex(int n, int threads, const Body& body) {
   };
   threads = std::max(1, std::min(threads, n / 1024));  // small meshes: not worth a thread
   if (threads == 1) return run(0, n);
+  // Not fixed halves: a rotation fit's cost varies from vertex to vertex, and one core of a
+  // virtual or busy machine can run slower than the other; either left a thread waiting.
+  constexpr int kChunk = 1024;
+  std::atomic<int> next{0};
   std::vector<long> sums(threads, 0);
+  auto worker = [&](int t) {
+    for (int begin = next.fetch_add(kChunk); begin < n; begin = next.fetch_add(kChunk))
+      sums[t] += run(begin, std::min(n, begin + kChunk));
+  };
   std::vector<std::thread> workers;
-  const int chunk = (n + threads - 1) / threads;
-  for (int t = 1; t < threads; ++t)
-    workers.emplace_back([&, t] { sums[t] = run(std::min(n, t * chunk), std::min(n, (t + 1) * chunk)); });
-  sums[0] = run(0, std::min(n, chunk));
+  for (int t = 1; t < threads; ++t) workers.emplace_back(worker, t);
+  worker(0);
   for (auto& w : workers) w.join();
   long total = 0;
   for (long v : sums) total += v;
