@@ -24,11 +24,11 @@ long for_each_vertex(int n, int threads, const Body& body) {
     for (int i = begin; i < end; ++i) sum += body(i);
     return sum;
   };
-  threads = std::max(1, std::min(threads, n / 1024));  // small meshes: not worth a thread
-  if (threads == 1) return run(0, n);
   // Not fixed halves: a rotation fit's cost varies from vertex to vertex, and one core of a
   // virtual or busy machine can run slower than the other; either left a thread waiting.
   constexpr int kChunk = 1024;
+  threads = std::max(1, std::min(threads, n / kChunk));  // a chunk per thread at least: small meshes run on one
+  if (threads == 1) return run(0, n);
   std::atomic<int> next{0};
   std::vector<long> sums(threads, 0);
   auto worker = [&](int t) {
