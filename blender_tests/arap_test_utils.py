@@ -157,9 +157,9 @@ def apply(m, pts):
     return pts @ m[:3, :3].T + m[:3, 3]
 
 
-def bar_with_handle(fixed_below=-1.5, handle_above=1.5):
-    """Cylinder with a fixed bottom, a handle on the top and its empty at the top centre."""
-    obj = add_cylinder()
+def bar_with_handle(fixed_below=-1.5, handle_above=1.5, **cylinder):
+    """Cylinder (add_cylinder's arguments) with a fixed bottom, a handle on the top and its empty at the top centre."""
+    obj = add_cylinder(**cylinder)
     fixed = group_where(obj, "bottom", lambda co: co.z < fixed_below)
     top = group_where(obj, "top", lambda co: co.z > handle_above)
     from arap_deform import api

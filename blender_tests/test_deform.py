@@ -55,6 +55,22 @@ class Deform(unittest.TestCase):
         r2 = api.deform(obj, iterations=3, tolerance=0.0)
         self.assertTrue(r2.cached_bind, "the second deform with unchanged inputs reuses the bind")
 
+    def test_two_threads_give_the_one_thread_result(self):
+        # 64 x 42 vertices: enough for the per-vertex passes to run on two threads.
+        obj, empty, _f, _t = U.bar_with_handle(vertices=64, cuts=40)
+        self.assertGreater(len(obj.data.vertices), 2048)
+        rest = U.coords(obj)
+        empty.matrix_world = posed_empty_matrix()
+        shapes = []
+        for threads in (1, 2, 1, 2):
+            obj.arap.threads = threads
+            r = api.deform(obj, iterations=20, tolerance=0.0)
+            self.assertEqual(r.iterations, 20)
+            shapes.append(U.coords(obj))
+        self.assertGreater(np.abs(shapes[0] - rest).max(), 0.5)  # it did move
+        for shape in shapes[1:]:
+            np.testing.assert_array_equal(shape, shapes[0])
+
     def test_last_result_reports_the_operator_run(self):
         obj, empty, _f, _t = U.bar_with_handle()
         self.assertIsNone(api.last_result(obj))

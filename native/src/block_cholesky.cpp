@@ -2,13 +2,13 @@
 
 #include <algorithm>
 #include <chrono>
-#include <thread>
 
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 
 #include "prefault.h"
 #include "vector_halves.h"
+#include "worker_threads.h"
 
 namespace arap {
 
@@ -244,25 +244,23 @@ void BlockCholesky::solve_in_place(double* x, std::vector<double>& work, int thr
   const bool parallel = threads > 1 && half_[1] > 0;
   // The halves never touch each other's rows; their updates to the separator are
   // summed afterwards in a fixed order, whatever ran them.
-  {
-    std::thread second;
-    if (parallel) second = std::thread([&] { forward_half(1, half_[0], separator_); });
-    forward_half(0, 0, half_[0]);
-    gather(separator_, n_);
-    if (parallel) second.join();
-    else forward_half(1, half_[0], separator_);
-  }
+  run_side_by_side(
+      parallel,
+      [&] {
+        forward_half(0, 0, half_[0]);
+        gather(separator_, n_);
+      },
+      [&] { forward_half(1, half_[0], separator_); });
   for (Eigen::Index k = 0; k < 3 * separator_rows; ++k) y[3 * separator_ + k] += partial[0][k] + partial[1][k];
   forward(y, separator_, n_, nullptr);
   backward(y, separator_, n_);
-  {
-    std::thread second;
-    if (parallel) second = std::thread([&] { backward_half(half_[0], separator_); });
-    backward_half(0, half_[0]);
-    scatter(separator_, n_);
-    if (parallel) second.join();
-    else backward_half(half_[0], separator_);
-  }
+  run_side_by_side(
+      parallel,
+      [&] {
+        backward_half(0, half_[0]);
+        scatter(separator_, n_);
+      },
+      [&] { backward_half(half_[0], separator_); });
 }
 
 }  // namespace arap

@@ -2,20 +2,20 @@
 
 #include <algorithm>
 #include <atomic>
-#include <thread>
 #include <vector>
 
 #include "arap/rotation_fit.h"
+#include "worker_threads.h"
 
 namespace arap {
 
 namespace {
 
 // Runs body(i) for i in [0, n) and returns the sum of the results. With more
-// than one thread, runs of kChunk vertices are handed out in turn to
-// short-lived std::threads that are joined before returning: nothing spins
-// afterwards (an OpenMP pool's spinning workers slowed the serial triangular
-// solve that follows on 2 busy cores). body(i) writes only vertex i's outputs
+// than one thread, runs of kChunk vertices are handed out in turn to the
+// calling thread and its helpers (worker_threads.h, which poll only briefly
+// after a section: an OpenMP pool's longer-spinning workers slowed the serial
+// triangular solve that follows on 2 busy cores). body(i) writes only vertex i's outputs
 // and the results are integers, so which thread ran which chunk changes nothing.
 template <class Body>
 long for_each_vertex(int n, int threads, const Body& body) {
@@ -31,14 +31,10 @@ long for_each_vertex(int n, int threads, const Body& body) {
   if (threads == 1) return run(0, n);
   std::atomic<int> next{0};
   std::vector<long> sums(threads, 0);
-  auto worker = [&](int t) {
+  run_on_threads(threads, [&](int t) {
     for (int begin = next.fetch_add(kChunk); begin < n; begin = next.fetch_add(kChunk))
       sums[t] += run(begin, std::min(n, begin + kChunk));
-  };
-  std::vector<std::thread> workers;
-  for (int t = 1; t < threads; ++t) workers.emplace_back(worker, t);
-  worker(0);
-  for (auto& w : workers) w.join();
+  });
   long total = 0;
   for (long v : sums) total += v;
   return total;

@@ -6,7 +6,7 @@
 #pragma once
 
 #include <cstddef>
-#include <thread>
+#include "worker_threads.h"
 
 namespace arap {
 
@@ -24,14 +24,7 @@ void for_each_half(std::ptrdiff_t n, int threads, const Body& body) {
     return;
   }
   const std::ptrdiff_t mid = n / 2 / 12 * 12;  // whole vertices, and whole 4-wide blocks of the unrolled sums
-  if (threads > 1) {
-    std::thread second([&] { body(mid, n, 1); });
-    body(std::ptrdiff_t(0), mid, 0);
-    second.join();
-  } else {
-    body(std::ptrdiff_t(0), mid, 0);
-    body(mid, n, 1);
-  }
+  run_side_by_side(threads > 1, [&] { body(std::ptrdiff_t(0), mid, 0); }, [&] { body(mid, n, 1); });
 }
 
 // The sum of body(begin, end) over the halves, added in a fixed order.

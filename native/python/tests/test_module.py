@@ -1,7 +1,11 @@
 # The native module _arap_native in a plain Python (no Blender): the constraint
 # rule, the options' one definition, and a solve through numpy buffers.
 # Run by ctest (python.module) with PYTHONPATH set to the staged add-on folder.
+import os
+import signal
+import threading
 import unittest
+import warnings
 
 import numpy as np
 
@@ -118,6 +122,60 @@ class Solve(unittest.TestCase):
             solver.solve(np.zeros((3, 3)))
         with self.assertRaises((arap.ArapError, ValueError, TypeError)):
             solver.solve(rest[[0, 11]], out=np.empty(5, np.float32))
+
+
+class Threads(unittest.TestCase):
+    """Two threads give the same result bit for bit, from any Python thread and in a forked child
+    (the solver keeps helper threads per calling thread between its parallel passes)."""
+
+    @classmethod
+    def setUpClass(cls):
+        # 22 000 vertices: above 20 000 free ones, so the triangular solves and the
+        # quasi-Newton vector passes split in halves too, not only the per-vertex passes.
+        columns = 200
+        cls.rest, cls.tris = strip(columns=columns, rows=110)
+        fixed = np.arange(0, len(cls.rest), columns)
+        moved = np.arange(columns - 1, len(cls.rest), columns)
+        cls.chosen = arap.constraint_set(len(cls.rest), fixed, "the fixed group", [("handle 'end'", moved)])
+        cls.targets = cls.rest[cls.chosen.constrained].copy()
+        cls.targets[cls.chosen.fixed_count:] += (0.0, 30.0, 20.0)
+        cls.one_thread = cls.solve(1)
+
+    @classmethod
+    def solve(cls, threads):
+        solver = arap.Solver()
+        solver.bind(cls.rest, cls.tris, cls.chosen.constrained)
+        solver.configure(max_iterations=15, tolerance=0.0, threads=threads)
+        out = np.empty(cls.rest.size, np.float64)
+        stats = solver.solve(cls.targets, out=out)
+        assert stats.iterations == 15
+        return out
+
+    def test_two_threads_match_one_on_the_main_and_another_python_thread(self):
+        self.assertFalse(np.array_equal(self.one_thread, self.rest.ravel()))  # it did move
+        np.testing.assert_array_equal(self.solve(2), self.one_thread)
+        results = []
+        worker = threading.Thread(target=lambda: results.append(self.solve(2)))
+        worker.start()
+        worker.join()
+        np.testing.assert_array_equal(results[0], self.one_thread)
+        np.testing.assert_array_equal(self.solve(2), self.one_thread)  # this thread's helpers still work
+
+    def test_a_forked_child_solves_on_two_threads(self):
+        self.solve(2)  # this thread now has helper threads; the child will not
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)  # fork() with threads: ours are asleep
+            child = os.fork()
+        if child == 0:
+            signal.alarm(120)  # a hang ends the child with SIGALRM instead of stalling the suite
+            code = 1
+            try:
+                code = 0 if np.array_equal(self.solve(2), self.one_thread) else 3
+            finally:
+                os._exit(code)
+        _, status = os.waitpid(child, 0)
+        self.assertTrue(os.WIFEXITED(status), f"the child ended by signal {os.WTERMSIG(status)}")
+        self.assertEqual(os.WEXITSTATUS(status), 0)
 
 
 if __name__ == "__main__":
