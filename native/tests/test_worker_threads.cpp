@@ -57,17 +57,18 @@ TEST(WorkerThreads, EveryPartRunsOnceOnItsOwnThread) {
 }
 
 TEST(WorkerThreads, ManySectionsBackToBackSeeEachOthersWrites) {
-  // Each section reads what the previous one wrote on the other thread: the
-  // hand-over must order memory both ways.
-  std::vector<long> a(1000, 0);
-  for (int round = 0; round < 2000; ++round)
+  // Each section reads what the previous one wrote, on both threads, and
+  // writes a second buffer: the hand-over must order memory both ways.
+  std::vector<long> a(1000, 1), b(1000, 0), expected(1000, 1), next(1000);
+  for (int round = 0; round < 2000; ++round) {
     arap::run_on_threads(2, [&](int t) {
-      for (size_t i = t; i < a.size(); i += 2) a[i] += 1 + a[a.size() - 1 - i] % 2;
+      for (size_t i = t; i < a.size(); i += 2) b[i] = (a[i] + a[a.size() - 1 - i]) % 1000003;
     });
-  long total = 0;
-  for (long v : a) total += v;
-  EXPECT_GT(total, 2000L * 1000);
-  EXPECT_LT(total, 2 * 2000L * 1000 + 1);
+    for (size_t i = 0; i < a.size(); ++i) next[i] = (expected[i] + expected[a.size() - 1 - i]) % 1000003;
+    a.swap(b);
+    expected.swap(next);
+  }
+  EXPECT_EQ(a, expected);
 }
 
 TEST(WorkerThreads, APartThatRunsPartsRunsThemInTurn) {
