@@ -7,6 +7,7 @@
 #   bash setup.sh bench         install the benchmark's extra packages and run the benchmarks
 #   bash setup.sh sanitize      clang build with ASan + UBSan + libFuzzer (build-sanitize/): the C++ tests and
 #                               the CLI's hostile catalogue, then each fuzz target for FUZZ_SECONDS (default 60)
+#   bash setup.sh tsan          clang build with ThreadSanitizer (build-tsan/): the C++ tests
 #   bash setup.sh deps          only install the packages
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -19,7 +20,7 @@ packages=(build-essential cmake libeigen3-dev libopenmesh-dev nlohmann-json3-dev
           python3-requests python3-cattr)
 [ "$mode" = bench ] && packages+=(libcgal-dev python3-matplotlib)
 # libclang-rt-dev: the sanitizer and libFuzzer runtimes of Debian's default clang.
-[ "$mode" = sanitize ] && packages+=(clang libclang-rt-dev)
+[ "$mode" = sanitize ] || [ "$mode" = tsan ] && packages+=(clang libclang-rt-dev)
 
 missing=()
 for p in "${packages[@]}"; do
@@ -43,6 +44,17 @@ if [ "$mode" = sanitize ]; then
   cmake --build "$SBUILD" -j"$(nproc)"
   ctest --test-dir "$SBUILD" --output-on-failure -j"$(nproc)"
   FUZZ_SEED=${FUZZ_SEED:-1} bash native/fuzz/run_fuzzers.sh "$SBUILD" "${FUZZ_SECONDS:-60}"
+  exit 0
+fi
+
+if [ "$mode" = tsan ]; then
+  # Every C++ test under ThreadSanitizer; a report fails the test. die_after_fork=0: the
+  # fork test runs the child's helper threads too (TSan would otherwise refuse them).
+  TBUILD=${ARAP_TSAN_BUILD_DIR:-build-tsan}
+  CC=clang CXX=clang++ cmake -S . -B "$TBUILD" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DARAP_TSAN=ON
+  cmake --build "$TBUILD" -j"$(nproc)" --target arap_tests
+  TSAN_OPTIONS="halt_on_error=1 die_after_fork=0 ${TSAN_OPTIONS:-}" \
+    ctest --test-dir "$TBUILD" --output-on-failure -j"$(nproc)" -L native
   exit 0
 fi
 
@@ -73,7 +85,7 @@ case "$mode" in
       --addon-dir "$BUILD/addon" --sizes 10000,50000,200000 --frames 20 --output "$BUILD/results"
     ;;
   *)
-    echo "usage: bash setup.sh [test|test-blender|bench|sanitize|deps]" >&2
+    echo "usage: bash setup.sh [test|test-blender|bench|sanitize|tsan|deps]" >&2
     exit 2
     ;;
 esac

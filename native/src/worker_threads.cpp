@@ -10,6 +10,7 @@
 #include <thread>
 #include <vector>
 
+#include <pthread.h>
 #include <sched.h>
 #include <unistd.h>
 
@@ -115,12 +116,25 @@ struct Helpers {
   std::vector<std::unique_ptr<Helper>> list;
 };
 
+// Each thread's helpers hang on a POSIX thread-specific key, whose destructor
+// stops them when that thread ends. (Not a C++ thread_local with a destructor:
+// that needs glibc 2.18, and the zip's modules need only 2.17.) The main
+// thread's helpers are not stopped at exit; they are asleep or about to be.
+pthread_key_t helpers_key;
+
+void destroy_helpers(void* helpers) { delete static_cast<Helpers*>(helpers); }
+
 Helpers& helpers_of_this_thread(int count) {
-  thread_local std::unique_ptr<Helpers> helpers;
+  static pthread_once_t once = PTHREAD_ONCE_INIT;
+  pthread_once(&once, [] { pthread_key_create(&helpers_key, destroy_helpers); });
+  auto* helpers = static_cast<Helpers*>(pthread_getspecific(helpers_key));
   // After fork() the child has this object but none of its threads: leave it
   // (destroying it would wait for threads that are not there) and start anew.
-  if (helpers && helpers->owner != getpid()) (void)helpers.release();
-  if (!helpers) helpers = std::make_unique<Helpers>();
+  if (helpers && helpers->owner != getpid()) helpers = nullptr;
+  if (!helpers) {
+    helpers = new Helpers;
+    pthread_setspecific(helpers_key, helpers);
+  }
   while (static_cast<int>(helpers->list.size()) < count) helpers->list.push_back(std::make_unique<Helper>());
   return *helpers;
 }

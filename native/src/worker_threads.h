@@ -11,10 +11,10 @@
 // sleeping, a batch between meshes) and a busy machine loses at most that
 // short while to a helper with nothing to do.
 //
-// The helpers belong to the thread that calls run_on_threads (thread_local):
-// solvers on two Python threads neither share nor wait on each other's. A
-// child process made by fork() starts its own (the parent's do not exist
-// there). Which thread runs which part never changes a result: callers split
+// The helpers belong to the thread that calls run_on_threads (one set per
+// thread, stopped when it ends): solvers on two Python threads neither share
+// nor wait on each other's. A child process made by fork() starts its own
+// (the parent's do not exist there). Which thread runs which part never changes a result: callers split
 // their work the same way whatever the thread count.
 #pragma once
 
