@@ -92,7 +92,8 @@ std::vector<Case> catalogue() {
   // OBJ and STL.
   for (const std::string x : {"1e39", "nan", "-1e999"})
     mesh("obj_coordinate_" + std::to_string(cases.size()) + ".obj", "v 0 0 0\nv " + x + " 0 0\nv 0 1 0\nf 1 2 3\n");
-  for (const std::string face : {"/1/1 2/1/1 3/1/1", "1 2 x", "1 2 3/4/5/6", "0 1 2", "1.5 2 3", "1 2 99999999999"})
+  for (const std::string face : {"/1/1 2/1/1 3/1/1", "1 2 x", "1 2 3/4/5/6", "0 1 2", "1.5 2 3", "1 2 99999999999",
+                                 "#1 /1 3//1", "1 2 3 #/1", "1 2 3 # see 4"})
     mesh("obj_face_" + std::to_string(cases.size()) + ".obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf " + face + "\n");
   mesh("obj_index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n");
   mesh("obj_no_faces.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");

@@ -284,6 +284,21 @@ TEST_F(MeshIo, ObjFaceVertexFormsAreRead) {
   EXPECT_EQ(m.polygons, (std::vector<std::vector<int>>{{0, 1, 2}, {0, 2, 3}}));
 }
 
+TEST_F(MeshIo, ACommentInAFaceLineIsReadOnlyWhenOpenMeshSkipsAllOfIt) {
+  const std::string vertices = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+  const PolygonMesh m = arap::io::read_mesh(write("words.obj", vertices + "f 1 2 3 # a -b #c\n"));
+  EXPECT_EQ(m.polygons, (std::vector<std::vector<int>>{{0, 1, 2}}));
+  // OpenMesh would read these as vertices (4, index -1) or abort on the '/1' (CI's fuzz finding).
+  for (const std::string comment : {"# see 4", "#/1", "#1 /1 3//1", "# x -2"}) {
+    try {
+      arap::io::read_mesh(write("number.obj", vertices + "f 1 2 3 " + comment + "\n"));
+      ADD_FAILURE() << "accepted: " << comment;
+    } catch (const FileError& e) {
+      EXPECT_NE(std::string(e.what()).find("the comment in this face line"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST_F(MeshIo, MissingFileAndDirectoryAreErrors) {
   EXPECT_THROW(arap::io::read_mesh(path("missing.off")), FileError);
   fs::create_directories(path("folder.off"));

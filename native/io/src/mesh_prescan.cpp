@@ -375,6 +375,17 @@ bool valid_obj_face_vertex(std::string_view t) {
   return false;  // a fourth field
 }
 
+// Whether OpenMesh 9.0's OBJ reader ignores this token of a face line. It has
+// no comments there: it reads an integer from each token ('/'-separated
+// fields), skips a token without '/' whose integer does not parse, and takes
+// a field that does not parse as 0. So "# see 4" adds vertex 4, "#/1" adds
+// vertex 0 (index -1), and "#1 /1" still aborts on the '/1'.
+bool openmesh_skips_face_token(std::string_view t) {
+  if (t.find('/') != std::string_view::npos) return false;
+  const size_t digit = t[0] == '+' || t[0] == '-' ? 1 : 0;
+  return digit >= t.size() || t[digit] < '0' || t[digit] > '9';
+}
+
 Expected scan_obj(const std::string& path, const std::string& data) {
   Cursor c(data);
   Expected expected{0, 0, {}, false, {}};
@@ -393,10 +404,18 @@ Expected scan_obj(const std::string& path, const std::string& data) {
       }
       ++expected.vertices;
     } else if (key == "f") {
-      for (std::string_view t = l.next(); !t.empty() && t[0] != '#'; t = l.next())
-        if (!valid_obj_face_vertex(t))
+      // OpenMesh reads every token of a face line, comments included (see
+      // openmesh_skips_face_token): a comment may only hold tokens it skips.
+      bool comment = false;
+      for (std::string_view t = l.next(); !t.empty(); t = l.next()) {
+        comment = comment || t[0] == '#';
+        if (comment && !openmesh_skips_face_token(t))
+          fail(path, "line " + std::to_string(line_no) + ": the comment in this face line has " + shown(t) +
+                         ", which OpenMesh would read as a vertex: move the comment to a line of its own");
+        if (!comment && !valid_obj_face_vertex(t))
           fail(path, "line " + std::to_string(line_no) + ": face vertex " + shown(t) +
                          " is not v, v/vt, v//vn or v/vt/vn with integer indices");
+      }
       ++expected.faces;
     } else if (key == "mtllib") {
       check_material_library(path, std::string(l.line()));
