@@ -91,6 +91,12 @@ for v in "${abis[@]}"; do
   cp "$so" "$stage/"
   glibc=$(objdump -T "$so" | grep -o 'GLIBC_[0-9.]*' | sort -V | tail -1)
   links=$(objdump -p "$so" | awk '/NEEDED/{print $2}' | tr '\n' ' ')
+  # The README promises glibc 2.17: a newer symbol (Volume's std::pow once pulled in pow@GLIBC_2.29) fails the build.
+  if [ "$(printf '%s\n' GLIBC_2.17 "$glibc" | sort -V | tail -1)" != GLIBC_2.17 ]; then
+    echo "the module for Python $v needs $glibc, newer than the 2.17 the README promises:" >&2
+    objdump -T "$so" | grep -F "($glibc)" >&2
+    exit 1
+  fi
   echo "| _arap_native.$tag.so | Debian 11 GCC $(chroot "$builder" gcc -dumpversion), pybind11 $((best_pybind / 1000)).$((best_pybind % 1000)) | ${glibc#GLIBC_} | $links|" >> "$dist/modules.md"
 done
 

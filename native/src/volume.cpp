@@ -99,7 +99,8 @@ void VolumeConstraint::bind(const BoundMesh& m, const Triangles& triangles) {
   // Size of the rest shape, for the retraction's reach.
   const Eigen::RowVector3d lo = m.rest.colwise().minCoeff(), hi = m.rest.colwise().maxCoeff();
   reach_ = 0.5 * (hi - lo).norm();
-  const double tiny_volume = 1e-12 * std::pow((hi - lo).norm(), 3);
+  const double diagonal = (hi - lo).norm();
+  const double tiny_volume = 1e-12 * diagonal * diagonal * diagonal;  // not std::pow: pow@GLIBC_2.29 (README: 2.17)
 
   triangle_begin_.assign(1, 0);
   corners_.clear();
