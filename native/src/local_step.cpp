@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <vector>
 
 #include "arap/rotation_fit.h"
 #include "worker_threads.h"
@@ -27,16 +26,18 @@ long for_each_vertex(int n, int threads, const Body& body) {
   // Not fixed halves: a rotation fit's cost varies from vertex to vertex, and one core of a
   // virtual or busy machine can run slower than the other; either left a thread waiting.
   constexpr int kChunk = 1024;
-  threads = std::max(1, std::min(threads, n / kChunk));  // a chunk per thread at least: small meshes run on one
+  constexpr int kMaxThreads = 64;  // Options::threads' limit (options.cpp)
+  // A chunk per thread at least: small meshes run on one.
+  threads = std::max(1, std::min({threads, n / kChunk, kMaxThreads}));
   if (threads == 1) return run(0, n);
   std::atomic<int> next{0};
-  std::vector<long> sums(threads, 0);
+  long sums[kMaxThreads] = {};  // on the stack: the iteration allocates nothing
   run_on_threads(threads, [&](int t) {
     for (int begin = next.fetch_add(kChunk); begin < n; begin = next.fetch_add(kChunk))
       sums[t] += run(begin, std::min(n, begin + kChunk));
   });
   long total = 0;
-  for (long v : sums) total += v;
+  for (int t = 0; t < threads; ++t) total += sums[t];
   return total;
 }
 

@@ -39,7 +39,7 @@ int poll_microseconds() {
 // busy one the thread that shares this core (another program, or the thread
 // being waited for) runs instead of the poll. Measured with a busy loop on
 // one of two cores, two threads at 100k vertices were 0.73-0.77x one thread
-// when polling with the processor's pause instruction, 0.98-0.99x yielding.
+// when polling with the processor's pause instruction, 0.97-0.99x yielding.
 template <class Ready>
 bool poll(const Ready& ready) {
   const auto deadline = Clock::now() + std::chrono::microseconds(poll_microseconds());
