@@ -65,6 +65,7 @@ class Problem:
         self.weights = WEIGHT_NAMES[s.weights]
         self.stiffness = constraints.stiffness_of(obj)
         self.volume = volume_options(s)
+        self.threads = s.threads  # large meshes order and factor in two halves side by side
 
     def _empties(self, scene):
         for h in self.setup.handles:
@@ -89,10 +90,10 @@ class Problem:
 
     def bind(self):
         """A new native solver bound to this problem (default options but those fixed at bind: the weights
-        and the volume terms)."""
+        and the volume terms; and the threads, which the bind uses too)."""
         solver = native().Solver()
         solver.bind(self.rest64, self.tris, self.setup.constrained, weights=self.weights, stiffness=self.stiffness,
-                    **self.volume)
+                    threads=self.threads, **self.volume)
         return solver
 
 

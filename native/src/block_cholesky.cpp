@@ -116,7 +116,7 @@ Eigen::SparseMatrix<double> permuted_lower(const Eigen::SparseMatrix<double>& A,
 
 }  // namespace
 
-bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel) {
+bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel, int threads) {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   n_ = A.rows();
@@ -128,10 +128,17 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel) 
     part[0].resize(n_);
     for (Eigen::Index k = 0; k < n_; ++k) part[0][k] = static_cast<int>(k);
   }
-  std::vector<int> order, local(n_, -1);
+  // The halves are ordered side by side on two threads (each with its own scratch); AMD is deterministic.
+  std::vector<int> part_order[3], local(n_, -1), second_local;
+  const bool parallel = threads > 1 && !part[0].empty() && !part[1].empty();
+  if (parallel) second_local.assign(n_, -1);
+  run_side_by_side(
+      parallel, [&] { part_order[0] = amd_order(A, part[0], local); },
+      [&] { part_order[1] = amd_order(A, part[1], parallel ? second_local : local); });
+  part_order[2] = amd_order(A, part[2], local);
+  std::vector<int> order;
   order.reserve(n_);
-  for (int p = 0; p < 3; ++p)
-    for (int row : amd_order(A, part[p], local)) order.push_back(row);
+  for (const auto& ordered_part : part_order) order.insert(order.end(), ordered_part.begin(), ordered_part.end());
   half_[0] = static_cast<Eigen::Index>(part[0].size());
   half_[1] = static_cast<Eigen::Index>(part[1].size());
   separator_ = half_[0] + half_[1];
@@ -149,7 +156,7 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel) 
   auto factored = ordered;
   bool ok;
   if (kernel == Kernel::Supernodal) {
-    ok = supernodal_cholesky(permuted, parent, bounds, L_);
+    ok = supernodal_cholesky(permuted, parent, bounds, L_, threads);
     factored = Clock::now();
   } else {
     Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> llt(permuted);

@@ -23,8 +23,9 @@ class BlockCholesky {
  public:
   enum class Kernel { Supernodal, Simplicial };
   // A: both triangles stored. Orders (see above), factors P A P^T = L L^T.
-  // Returns false if A is not SPD.
-  bool factor(const Eigen::SparseMatrix<double>& A, Kernel kernel = Kernel::Supernodal);
+  // threads > 1 orders and (supernodal kernel) factors the two halves side by
+  // side: the same factor bit for bit. Returns false if A is not SPD.
+  bool factor(const Eigen::SparseMatrix<double>& A, Kernel kernel = Kernel::Supernodal, int threads = 1);
   double ordering_ms() const { return ordering_ms_; }
   double factor_ms() const { return factor_ms_; }
   // x: rows() by 3 row-major, overwritten with A^-1 x. `work` is resized once.

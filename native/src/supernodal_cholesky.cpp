@@ -8,6 +8,7 @@
 
 #include "dense_kernels.h"
 #include "prefault.h"
+#include "worker_threads.h"
 
 namespace arap {
 
@@ -155,7 +156,7 @@ std::vector<int> postorder_within_parts(const std::vector<int>& parent, const st
 }
 
 bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const std::vector<int>& bounds,
-                         SparseFactor& L) {
+                         SparseFactor& L, int threads) {
   L.clear();
   const int n = static_cast<int>(A.rows());
   const std::vector<int> count = column_counts(A, parent);
@@ -199,11 +200,26 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
   // Each block is zeroed when its supernode comes (in cache, just before use), not all up front.
   UninitializedVector<double> value(static_cast<size_t>(value_start[m]));
   prefault_buffer(value);
-  std::vector<double> update, pack;
   const bool avx2 = have_avx2_fma() && !std::getenv("ARAP_NO_AVX2");
-  std::vector<int> map(n), waiting_head(m, -1), waiting_next(m, -1), relative;
+  std::vector<int> waiting_next(m, -1);
   std::vector<long> cursor(m);
-  for (int s = 0; s < m; ++s) {
+  // What one thread needs of its own: the waiting lists it pushes to and scratch.
+  struct Workspace {
+    std::vector<int> map, waiting_head, relative;
+    std::vector<double> update, pack;
+  };
+  auto make_workspace = [&] {
+    Workspace w;
+    w.map.resize(n);
+    w.waiting_head.assign(m, -1);
+    return w;
+  };
+  // Factors supernode s; false if its diagonal block is not positive definite.
+  auto factor_supernode = [&](int s, Workspace& w) {
+    std::vector<int>& map = w.map;
+    std::vector<int>& waiting_head = w.waiting_head;
+    std::vector<int>& relative = w.relative;
+    std::vector<double>& update = w.update;
     const int begin = first[s], end = first[s + 1], width = end - begin;
     const int* row = rows.data() + row_start[s];
     const long height = row_start[s + 1] - row_start[s];
@@ -227,7 +243,7 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
       if (avx2) {
         ldc = product_rows(tall);
         if (update.size() < static_cast<size_t>(ldc * product_columns(wide))) update.resize(ldc * product_columns(wide));
-        lower_product_avx2(Ld.data() + p1, dheight, tall, wide, Ld.cols(), update.data(), pack);
+        lower_product_avx2(Ld.data() + p1, dheight, tall, wide, Ld.cols(), update.data(), w.pack);
       } else {
         if (update.size() < static_cast<size_t>(tall * wide)) update.resize(tall * wide);
         Eigen::Map<Eigen::MatrixXd> C(update.data(), tall, wide);
@@ -257,10 +273,10 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
     Block diagonal(block, width, width, Eigen::OuterStride<>(height));
     Eigen::Ref<Eigen::MatrixXd> diagonal_ref(diagonal);
     // Eigen::LLT's own in-place factorization, without the L1 norm LLT computes first (for rcond()).
-    if (Eigen::internal::llt_inplace<double, Eigen::Lower>::blocked(diagonal_ref) != -1) return L.clear(), false;
+    if (Eigen::internal::llt_inplace<double, Eigen::Lower>::blocked(diagonal_ref) != -1) return false;
     if (height > width) {
       if (avx2) {
-        solve_transposed_avx2(block + width, height, height - width, block, height, width, pack);
+        solve_transposed_avx2(block + width, height, height - width, block, height, width, w.pack);
       } else {
         Block below(block + width, height - width, width, Eigen::OuterStride<>(height));
         diagonal.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(below);
@@ -269,7 +285,46 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
       const int t = super_of[row[width]];
       waiting_next[s] = waiting_head[t], waiting_head[t] = s;
     }
+    return true;
+  };
+  auto factor_range = [&](int from, int to, Workspace& w) {
+    for (int s = from; s < to; ++s)
+      if (!factor_supernode(s, w)) return false;
+    return true;
+  };
+
+  // With two halves and a separator (no entry couples the halves), the halves
+  // are independent until the separator: they may run side by side, each
+  // pushing to its own waiting lists. The separator's lists are then joined
+  // as one thread would have left them (the second half's pushes above the
+  // first's), so the updates are added in the same order: the same result.
+  Workspace main_work = make_workspace();
+  int split = m, separator = m;  // first supernode of the second half and of the separator
+  if (bounds.size() == 4) {
+    split = static_cast<int>(std::lower_bound(first.begin(), first.end() - 1, bounds[1]) - first.begin());
+    separator = static_cast<int>(std::lower_bound(first.begin(), first.end() - 1, bounds[2]) - first.begin());
   }
+  bool ok;
+  if (threads > 1 && split > 0 && separator > split) {
+    Workspace second_work = make_workspace();
+    bool ok_first = false, ok_second = false;
+    run_side_by_side(
+        true, [&] { ok_first = factor_range(0, split, main_work); },
+        [&] { ok_second = factor_range(split, separator, second_work); });
+    ok = ok_first && ok_second;
+    for (int t = separator; t < m && ok; ++t) {
+      int head = second_work.waiting_head[t];
+      if (head < 0) continue;
+      int tail = head;
+      while (waiting_next[tail] >= 0) tail = waiting_next[tail];
+      waiting_next[tail] = main_work.waiting_head[t];
+      main_work.waiting_head[t] = head;
+    }
+    ok = ok && factor_range(separator, m, main_work);
+  } else {
+    ok = factor_range(0, m, main_work);
+  }
+  if (!ok) return L.clear(), false;
 
   // Compressed columns without the zeros amalgamation added (an entry outside
   // L's structure is a sum of products each with an exact zero: exactly zero),

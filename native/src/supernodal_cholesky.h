@@ -44,9 +44,11 @@ std::vector<int> postorder_within_parts(const std::vector<int>& parent, const st
 
 // Factors A (only its lower triangle is read; `parent`: its elimination tree, which
 // must be postordered, see above). Supernodes never span two parts
-// [bounds[k], bounds[k+1]). Returns false (L cleared) if A is not positive
-// definite.
+// [bounds[k], bounds[k+1]). With three parts (two halves that no entry
+// couples, then their separator) and threads > 1 the halves are factored side
+// by side; the result is the same bit for bit. Returns false (L cleared) if A
+// is not positive definite.
 bool supernodal_cholesky(const Eigen::SparseMatrix<double>& A, const std::vector<int>& parent,
-                         const std::vector<int>& bounds, SparseFactor& L);
+                         const std::vector<int>& bounds, SparseFactor& L, int threads = 1);
 
 }  // namespace arap

@@ -1,11 +1,12 @@
 // The bind's sparse Cholesky (block_cholesky.h, supernodal_cholesky.h): its
 // solve against Eigen's on procedural matrices, small (one part) and split
-// (two halves and a separator, >= 20k rows), one thread against two, and a
-// clean refusal of matrices that are not positive definite.
+// (two halves and a separator, >= 20k rows), one thread against two (solve
+// and factor), and a clean refusal of matrices that are not positive definite.
 #include <gtest/gtest.h>
 
 #include <Eigen/SparseCholesky>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <vector>
@@ -87,6 +88,38 @@ TEST(BlockCholesky, SplitMeshMatrixSolvesLikeEigen) {
   EXPECT_GT(chol.second_half(), 0);
   EXPECT_LT(chol.first_half() + chol.second_half(), A.rows());
   expect_solves_like_eigen(A);
+}
+
+// Two threads order and factor the halves side by side: the factor is the
+// one-thread factor bit for bit (the same solution to the last bit), and a
+// matrix that is not positive definite in either half is refused.
+TEST(BlockCholesky, TwoThreadFactorIsTheOneThreadFactor) {
+  for (const Sparse& A : {mesh_matrix(arap::procedural::make_bar_with_vertices(24000), 1e-4, 11),
+                          mesh_matrix(arap::procedural::make_sphere(30000), 1e-4, 12)}) {
+    arap::BlockCholesky one, two;
+    ASSERT_TRUE(one.factor(A, arap::BlockCholesky::Kernel::Supernodal, 1));
+    ASSERT_TRUE(two.factor(A, arap::BlockCholesky::Kernel::Supernodal, 2));
+    ASSERT_GT(two.first_half(), 0);
+    ASSERT_GT(two.second_half(), 0);
+    EXPECT_EQ(two.first_half(), one.first_half());
+    EXPECT_EQ(two.nonzeros(), one.nonzeros());
+    const Eigen::MatrixXd b = random_rhs(A.rows(), 13);
+    const Eigen::MatrixXd x1 = solve(one, b, 1), x2 = solve(two, b, 1);
+    EXPECT_EQ(std::memcmp(x1.data(), x2.data(), sizeof(double) * x1.size()), 0);
+    EXPECT_LT((A * x2 - b).norm(), 1e-6 * b.norm());
+  }
+  const Sparse A = mesh_matrix(arap::procedural::make_bar_with_vertices(24000), 1e-4, 14);
+  const Eigen::Index n = A.rows();
+  for (Eigen::Index row : {Eigen::Index(3), n / 2, n - 3}) {  // first half, about the middle, second half
+    Sparse broken = A;
+    broken.coeffRef(row, row) = -1;
+    arap::BlockCholesky two;
+    EXPECT_FALSE(two.factor(broken, arap::BlockCholesky::Kernel::Supernodal, 2)) << row;
+    EXPECT_EQ(two.nonzeros(), 0) << row;
+  }
+  arap::BlockCholesky two;
+  EXPECT_FALSE(two.factor(mesh_matrix(arap::procedural::make_bar_with_vertices(24000), -0.05, 15),
+                          arap::BlockCholesky::Kernel::Supernodal, 2));
 }
 
 // A dense block (a clique of 300 rows) gives wide supernodes: the dense

@@ -49,7 +49,8 @@ struct Options {
   int max_iterations = 1000;
   // Stop when (E_prev - E) <= tolerance * |E_prev|; 0 runs the whole budget.
   double tolerance = 1e-6;
-  // Threads for the local step and the right-hand side (meshes of 2048+ vertices); 1 = none started.
+  // Threads for the local step and the right-hand side (meshes of 2048+ vertices) and, from 20 000 free
+  // vertices, for the bind's ordering and factorization and the triangular solves; 1 = none started.
   int threads = 1;
   // Anderson acceleration window (Peng et al. 2018) of Method::Anderson; 0 = plain local/global.
   int anderson_window = 5;

@@ -130,8 +130,9 @@ class Threads(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        # 22 000 vertices: above 20 000 free ones, so the triangular solves and the
-        # quasi-Newton vector passes split in halves too, not only the per-vertex passes.
+        # 22 000 vertices: above 20 000 free ones, so the bind's ordering and factorization,
+        # the triangular solves and the quasi-Newton vector passes split in halves too,
+        # not only the per-vertex passes.
         columns = 200
         cls.rest, cls.tris = strip(columns=columns, rows=110)
         fixed = np.arange(0, len(cls.rest), columns)
@@ -144,8 +145,8 @@ class Threads(unittest.TestCase):
     @classmethod
     def solve(cls, threads):
         solver = arap.Solver()
-        solver.bind(cls.rest, cls.tris, cls.chosen.constrained)
-        solver.configure(max_iterations=15, tolerance=0.0, threads=threads)
+        solver.bind(cls.rest, cls.tris, cls.chosen.constrained, threads=threads)  # the factor's halves too
+        solver.configure(max_iterations=15, tolerance=0.0)
         out = np.empty(cls.rest.size, np.float64)
         stats = solver.solve(cls.targets, out=out)
         assert stats.iterations == 15
