@@ -220,15 +220,21 @@ template <class Measure>
 json best_of(double seconds, Measure measure) {
   json best;
   int runs = 0;
+  // The one-off set-up of every run (ours: bind; CGAL: preprocess), whose median is compared.
+  std::vector<double> setup_ms;
   const auto start = Clock::now();
   do {
     json r = measure();
     ++runs;
     if (!r.contains("iteration_ms")) return r;  // an error
+    setup_ms.push_back(r.contains("bind_ms") ? r["bind_ms"].get<double>() : r["preprocess_ms"].get<double>());
     if (best.is_null() || r["iteration_ms"]["median"].get<double>() < best["iteration_ms"]["median"].get<double>())
       best = std::move(r);
   } while (runs < 5 && ms_since(start) < 1e3 * seconds);
   best["repetitions"] = runs;
+  const std::string key = best.contains("bind_ms") ? "bind_ms" : "preprocess_ms";
+  best[key + "_all"] = setup_ms;
+  best[key + "_median"] = quantile(setup_ms, 0.5);
   return best;
 }
 
@@ -405,7 +411,8 @@ void write_results(const json& doc, const std::filesystem::path& dir) {
         "reference E_ref. Thread counts after the first time the first weights over 30 iterations.\n"
      << "- Each measurement (ours and CGAL) is repeated up to 5 times while its runs took less than "
      << set["repeat_seconds"].get<double>() << " s in all; the row is the run with the lowest median iteration "
-        "time (small meshes get several tries, large ones one).\n"
+        "time (small meshes get several tries, large ones one); ours/CGAL bind compares the medians of our bind "
+        "and CGAL's prep over all the runs (bind_ms_all, preprocess_ms_all in results.json).\n"
      << "- Times in ms. bind: total, with the shares of the fill-reducing ordering and of the numeric "
         "factorization (the rest: checks, weights, Laplacian). iteration: median [min–max] over all iterations; rot / rhs / solve: shares of the mean "
         "iteration in the local step (with its energy), the right-hand side and the triangular solves (per-step "
@@ -441,7 +448,7 @@ void write_results(const json& doc, const std::filesystem::path& dir) {
         md << fmt(cg["preprocess_ms"]) << " | " << fmt(ci["median"]) << " [" << fmt(ci["min"]) << "–"
            << fmt(ci["max"]) << "] | " << fmt(cg["peak_mib"]) << " | "
            << fmt(it["median"].get<double>() / ci["median"].get<double>(), "%.2f") << " | "
-           << fmt(r["bind_ms"].get<double>() / cg["preprocess_ms"].get<double>(), "%.2f") << " |\n";
+           << fmt(r["bind_ms_median"].get<double>() / cg["preprocess_ms_median"].get<double>(), "%.2f") << " |\n";
       } else {
         md << (cg.is_object() && cg.contains("error") ? "error: " + cg["error"].get<std::string>() : "–")
            << " | – | – | – | – |\n";
