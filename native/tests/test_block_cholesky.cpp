@@ -110,7 +110,9 @@ TEST(BlockCholesky, TwoThreadFactorIsTheOneThreadFactor) {
   }
   const Sparse A = mesh_matrix(arap::procedural::make_bar_with_vertices(24000), 1e-4, 14);
   const Eigen::Index n = A.rows();
-  for (Eigen::Index row : {Eigen::Index(3), n / 2, n - 3}) {  // first half, about the middle, second half
+  // Rows near both ends of the bar (the split's breadth-first levels start at row 0, so the
+  // first lies in the first half and the last in the second) and one in the middle.
+  for (Eigen::Index row : {Eigen::Index(3), n / 2, n - 3}) {
     Sparse broken = A;
     broken.coeffRef(row, row) = -1;
     arap::BlockCholesky two;
