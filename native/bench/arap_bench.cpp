@@ -14,6 +14,7 @@
 #include <fstream>
 #include <iostream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -44,6 +45,7 @@ struct Args {
   bool cgal = true;
   int cgal_max_vertices = 300000, cgal_iterations = 20;
   double repeat_seconds = 3;
+  int bind_pairs = 7;  // alternated binds of ours and CGAL's preprocess, for the bind ratio
   std::string output_dir = "results";
   std::vector<int> sizes;  // explicit procedural sizes instead of doubling
   bool time_to_band = false;
@@ -65,6 +67,9 @@ const char* kUsage = R"(usage: arap-bench [options] [mesh.off|.obj|.ply|scenario
   --no-cgal              skip CGAL
   --cgal-max-vertices N  largest mesh given to CGAL (default 300000)
   --cgal-iterations N    CGAL iterations (default 20)
+  --bind-pairs K         after the runs, K binds of ours and K CGAL preprocesses alternated (CPU time of the
+                         thread, the first of each pair switching sides), whose median ratio is the ours/CGAL
+                         bind column (default 7; 0: the medians of the runs' binds instead)
   --repeat-seconds S     repeat each measurement (up to 5 times) while its runs took less than S
                          seconds in all, and keep the run with the lowest median iteration (default 3)
   --output-dir DIR       where results.md and results.json go (default ./results)
@@ -126,6 +131,8 @@ Args parse_args(int argc, char** argv) {
       a.cgal_max_vertices = std::stoi(value());
     } else if (flag == "--cgal-iterations") {
       a.cgal_iterations = std::max(1, std::stoi(value()));
+    } else if (flag == "--bind-pairs") {
+      a.bind_pairs = std::max(0, std::stoi(value()));
     } else if (flag == "--repeat-seconds") {
       a.repeat_seconds = std::stod(value());
     } else if (flag == "--output-dir") {
@@ -361,12 +368,69 @@ json run_cgal(const bench::Case& c, const Args& args, double reference_clamped) 
 }
 #endif
 
+#ifdef ARAP_BENCH_HAVE_CGAL
+// Our bind (a fresh solver, the first weights, one thread) and CGAL's
+// preprocess, `pairs` times each, alternated so that a change of the machine's
+// speed during the run touches both sides alike: the median of the pairs'
+// ratios of CPU time of the thread, with every sample kept.
+json bind_pairs(const bench::Case& c, arap::Weights weights, const Args& args) {
+  arap::Options options;
+  options.weights = weights;
+  options.init = args.init;
+  std::vector<double> ours_ms, cgal_ms, ratio;
+  // Each side starts from trimmed memory, as the runs do (PeakMemory::start): both pay their page faults.
+  auto time_ours = [&] {
+    malloc_trim(0);
+    arap::Solver solver;
+    const double start = bench::thread_cpu_ms();
+    solver.bind(c.rest, c.triangles, c.constrained, options);
+    return bench::thread_cpu_ms() - start;
+  };
+  auto time_cgal = [&] {
+    malloc_trim(0);
+    const bench::CgalResult res = bench::run_cgal_arap(c.rest, c.triangles, c.constrained, c.targets, 0, {});
+    if (!res.ok) throw std::runtime_error("CGAL: " + res.error);
+    return res.preprocess_cpu_ms;
+  };
+  for (int k = 0; k < args.bind_pairs; ++k) {
+    double ours, cgal;
+    if (k % 2 == 0) {
+      ours = time_ours();
+      cgal = time_cgal();
+    } else {
+      cgal = time_cgal();
+      ours = time_ours();
+    }
+    ours_ms.push_back(ours), cgal_ms.push_back(cgal), ratio.push_back(ours / cgal);
+  }
+  return {{"weights", arap::to_string(weights)},
+          {"ours_cpu_ms", ours_ms},
+          {"cgal_cpu_ms", cgal_ms},
+          {"ratio", ratio},
+          {"ratio_median", quantile(ratio, 0.5)},
+          {"ratio_min", *std::min_element(ratio.begin(), ratio.end())},
+          {"ratio_max", *std::max_element(ratio.begin(), ratio.end())}};
+}
+#endif
+
 // ---- output ----------------------------------------------------------------------
 std::string fmt(const json& v, const char* spec = "%.3g") {
   if (v.is_null()) return "–";
   char buf[64];
   std::snprintf(buf, sizeof buf, spec, v.get<double>());
   return buf;
+}
+
+// The ours/CGAL bind column: the alternated pairs' median ratio (CPU time)
+// for the row of the pairs' weights at one thread, else the medians of the
+// runs' binds (wall time) over the median of CGAL's preprocesses.
+std::string bind_ratio(const json& mesh, const json& run, const json& cgal) {
+  const json& pairs = mesh.contains("bind_pairs") ? mesh["bind_pairs"] : json();
+  if (pairs.is_object() && run["threads"].get<int>() == 1 && run["anderson"].get<int>() == 0 &&
+      run["weights"] == pairs["weights"])
+    return fmt(pairs["ratio_median"], "%.3f") + " [" + fmt(pairs["ratio_min"], "%.2f") + "–" +
+           fmt(pairs["ratio_max"], "%.2f") + "]";
+  return fmt(run["bind_ms_median"].get<double>() / cgal["preprocess_ms_median"].get<double>(), "%.2f");
 }
 
 // "61 / 9 / 30": shares of the mean iteration spent in the local step, the
@@ -411,8 +475,10 @@ void write_results(const json& doc, const std::filesystem::path& dir) {
         "reference E_ref. Thread counts after the first time the first weights over 30 iterations.\n"
      << "- Each measurement (ours and CGAL) is repeated up to 5 times while its runs took less than "
      << set["repeat_seconds"].get<double>() << " s in all; the row is the run with the lowest median iteration "
-        "time (small meshes get several tries, large ones one); ours/CGAL bind compares the medians of our bind "
-        "and CGAL's prep over all the runs (bind_ms_all, preprocess_ms_all in results.json).\n"
+        "time (small meshes get several tries, large ones one); ours/CGAL bind: after the runs, our bind "
+        "(first weights, one thread, a fresh solver) and CGAL's prep alternate --bind-pairs times each (CPU time of "
+        "the thread, each from trimmed memory); the column is the median [min–max] of the pairs' ratios "
+        "(bind_pairs in results.json), or with no pairs the medians of the runs' bind and prep (wall).\n"
      << "- Times in ms. bind: total, with the shares of the fill-reducing ordering and of the numeric "
         "factorization (the rest: checks, weights, Laplacian). iteration: median [min–max] over all iterations; rot / rhs / solve: shares of the mean "
         "iteration in the local step (with its energy), the right-hand side and the triangular solves (per-step "
@@ -448,7 +514,7 @@ void write_results(const json& doc, const std::filesystem::path& dir) {
         md << fmt(cg["preprocess_ms"]) << " | " << fmt(ci["median"]) << " [" << fmt(ci["min"]) << "–"
            << fmt(ci["max"]) << "] | " << fmt(cg["peak_mib"]) << " | "
            << fmt(it["median"].get<double>() / ci["median"].get<double>(), "%.2f") << " | "
-           << fmt(r["bind_ms_median"].get<double>() / cg["preprocess_ms_median"].get<double>(), "%.2f") << " |\n";
+           << bind_ratio(m, r, cg) << " |\n";
       } else {
         md << (cg.is_object() && cg.contains("error") ? "error: " + cg["error"].get<std::string>() : "–")
            << " | – | – | – | – |\n";
@@ -615,6 +681,12 @@ int main(int argc, char** argv) {
         else
           std::cerr << "  CGAL: preprocess " << fmt(m["cgal"]["preprocess_ms"]) << " ms, iteration "
                     << fmt(m["cgal"]["iteration_ms"]["median"]) << " ms" << std::endl;
+        if (args.bind_pairs > 0 && !m["cgal"].contains("error")) {
+          m["bind_pairs"] = bind_pairs(c, args.weights.front(), args);
+          std::cerr << "  bind pairs: ours/CGAL " << fmt(m["bind_pairs"]["ratio_median"], "%.3f") << " ["
+                    << fmt(m["bind_pairs"]["ratio_min"], "%.3f") << "–" << fmt(m["bind_pairs"]["ratio_max"], "%.3f")
+                    << "]" << std::endl;
+        }
       }
 #endif
       doc["meshes"].push_back(std::move(m));
