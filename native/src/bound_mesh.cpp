@@ -7,7 +7,6 @@
 #include "arap/errors.h"
 #include "arap/weights.h"
 #include "prefault.h"
-#include "union_find.h"
 #include "vertex_order.h"
 
 namespace arap {
@@ -41,21 +40,6 @@ void check_bind_input(const Eigen::Ref<const Points>& rest, const Eigen::Ref<con
   }
 }
 
-namespace {
-
-// Component id of every vertex over `edges` (-1: in no edge); returns the count.
-int label_over_edges(int n, const std::vector<WeightedEdge>& edges, std::vector<int>& component) {
-  UnionFind sets(n);
-  std::vector<char> used(n, 0);
-  for (const auto& e : edges) {
-    used[e.i] = used[e.j] = 1;
-    sets.join(e.i, e.j);
-  }
-  return sets.label(used, component);
-}
-
-}  // namespace
-
 BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
                            const std::vector<int>& constrained, Weights weights,
                            const std::vector<double>& stiffness, const InfillGraph* infill) {
@@ -84,9 +68,13 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
     m.report.infill_cells = infill->cells;
   }
 
-  // Internal numbering for locality of the per-vertex loops.
+  // Internal numbering for locality of the per-vertex loops. Its breadth-first
+  // passes also find the components over the edges (the non-degenerate
+  // triangles and the lattice): component[v] = -1 for a vertex in no edge.
   const EdgeGraph graph = edge_graph(m.n, edges);
-  m.order = locality_order(graph);
+  std::vector<int> component;
+  int components = 0;
+  m.order = locality_order(graph, &component, &components);
   m.rank.assign(m.n, 0);
   for (int k = 0; k < m.n; ++k) m.rank[m.order[k]] = k;
   m.rest.resize(m.n, 3);
@@ -104,10 +92,7 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
       if (m.order[k] < m.input_n) m.stiffness[k] = stiffness[m.order[k]];
 
   // Components without a constraint and isolated vertices are kept at rest
-  // (the components over the edges, i.e. the non-degenerate triangles and the
-  // lattice; counted by the mesh's own vertices).
-  std::vector<int> component;
-  const int components = label_over_edges(m.n, edges, component);
+  // (counted by the mesh's own vertices).
   std::vector<char> component_constrained(components, 0), component_counted(components, 0);
   for (int v : constrained)
     if (component[v] >= 0) component_constrained[component[v]] = 1;
@@ -149,13 +134,11 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
 
   // Spokes in CSR order: both directions of every edge with a nonzero weight,
   // vertex by vertex in the graph's order of neighbours.
+  std::vector<int> spoke_count(m.n, 0);  // input index: one pass in the graph's own order
+  for (int v = 0; v < m.n; ++v)
+    for (int q = graph.begin[v]; q < graph.begin[v + 1]; ++q) spoke_count[v] += graph.weight[q] != 0;
   m.spoke_begin.assign(m.n + 1, 0);
-  for (int k = 0; k < m.n; ++k) {
-    const int v = m.order[k];
-    int count = 0;
-    for (int q = graph.begin[v]; q < graph.begin[v + 1]; ++q) count += graph.weight[q] != 0;
-    m.spoke_begin[k + 1] = m.spoke_begin[k] + count;
-  }
+  for (int k = 0; k < m.n; ++k) m.spoke_begin[k + 1] = m.spoke_begin[k] + spoke_count[m.order[k]];
   resize_prefaulted(m.neighbor, m.spoke_begin[m.n]);
   m.spokes.resize(m.spoke_begin[m.n]);
   prefault_buffer(m.spokes);
@@ -196,26 +179,34 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   double* values = m.laplacian_ff.valuePtr();
   prefault(inner, sizeof(int) * capacity);
   prefault(values, sizeof(double) * capacity);
+  // Without stiffness (all 1) the factor (s_i + s_j) / 2 is exactly 1, and
+  // only a lattice has lattice edges: both are skipped when they cannot apply.
+  const bool stiff = !stiffness.empty();
   int p = 0;
   outer[0] = 0;
-  std::vector<std::pair<int, double>> column;
   for (int r = 0; r < nf; ++r) {
     const int i = m.free_vertices[r];
     double diagonal = 0;
-    column.clear();
+    const int column_begin = p;
     for (int k = m.spoke_begin[i]; k < m.spoke_begin[i + 1]; ++k) {
       const int j = m.neighbor[k];
-      double w = m.spokes[k].w * 0.5 * (m.stiffness[i] + m.stiffness[j]);
-      if (m.order[i] >= m.input_n && m.order[j] >= m.input_n) w *= lattice_scale;
+      double w = stiff ? m.spokes[k].w * 0.5 * (m.stiffness[i] + m.stiffness[j]) : m.spokes[k].w;
+      if (infill && m.order[i] >= m.input_n && m.order[j] >= m.input_n) w *= lattice_scale;
       diagonal += w;
       if (m.free_row[j] >= 0)
-        column.emplace_back(m.free_row[j], -w);
+        inner[p] = m.free_row[j], values[p++] = -w;
       else
         m.couplings.push_back({r, slot_of[j], w});
     }
-    column.emplace_back(r, diagonal);
-    std::sort(column.begin(), column.end());
-    for (const auto& [row, value] : column) inner[p] = row, values[p++] = value;
+    inner[p] = r, values[p++] = diagonal;
+    // The column's rows in increasing order (a handful: insertion sort, rows are distinct).
+    for (int a = column_begin + 1; a < p; ++a) {
+      const int row = inner[a];
+      const double value = values[a];
+      int hole = a;
+      for (; hole > column_begin && inner[hole - 1] > row; --hole) inner[hole] = inner[hole - 1], values[hole] = values[hole - 1];
+      inner[hole] = row, values[hole] = value;
+    }
     outer[r + 1] = p;
   }
   m.laplacian_ff.resizeNonZeros(p);  // no reallocation: only the count shrinks

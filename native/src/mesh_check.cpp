@@ -8,13 +8,6 @@
 
 namespace arap {
 
-double twice_area_unless_degenerate(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  const double longest2 = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
-  const double twice_area = (b - a).cross(c - a).norm();
-  // Also catches three coincident points (longest2 == 0).
-  return twice_area > kDegenerateRelativeArea * longest2 ? twice_area : 0.0;
-}
-
 bool is_degenerate_triangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
   return twice_area_unless_degenerate(a, b, c) == 0;
 }

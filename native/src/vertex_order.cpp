@@ -9,18 +9,19 @@ namespace arap {
 namespace {
 
 // Breadth-first order from `start` into `out`; marks visited. Returns the last vertex reached.
+// by_degree: each vertex's newly reached neighbours in increasing degree (sorted where they were appended).
 int breadth_first(const EdgeGraph& g, int start, std::vector<char>& visited, std::vector<int>& out, bool by_degree) {
   const size_t first = out.size();
   visited[start] = 1;
   out.push_back(start);
-  std::vector<int> next;
   for (size_t k = first; k < out.size(); ++k) {
     const int v = out[k];
-    next.clear();
+    const size_t reached = out.size();
     for (int p = g.begin[v]; p < g.begin[v + 1]; ++p)
-      if (!visited[g.adjacent[p]]) visited[g.adjacent[p]] = 1, next.push_back(g.adjacent[p]);
-    if (by_degree) std::sort(next.begin(), next.end(), [&](int a, int b) { return g.degree(a) < g.degree(b); });
-    out.insert(out.end(), next.begin(), next.end());
+      if (!visited[g.adjacent[p]]) visited[g.adjacent[p]] = 1, out.push_back(g.adjacent[p]);
+    if (by_degree)
+      std::sort(out.begin() + static_cast<std::ptrdiff_t>(reached), out.end(),
+                [&](int a, int b) { return g.degree(a) < g.degree(b); });
   }
   return out.back();
 }
@@ -45,11 +46,14 @@ EdgeGraph edge_graph(int n, const std::vector<WeightedEdge>& edges) {
   return g;
 }
 
-std::vector<int> locality_order(const EdgeGraph& g) {
+std::vector<int> locality_order(const EdgeGraph& g, std::vector<int>* component, int* components) {
   const int n = static_cast<int>(g.begin.size()) - 1;
   std::vector<char> visited(n, 0), probe_visited(n, 0);
   std::vector<int> order, probe;
   order.reserve(n);
+  probe.reserve(n);
+  if (component) component->assign(n, -1);
+  int count = 0;
   for (int v = 0; v < n; ++v) {
     if (visited[v]) continue;
     // A far start: the last vertex of a breadth-first pass from v.
@@ -58,7 +62,12 @@ std::vector<int> locality_order(const EdgeGraph& g) {
     const size_t first = order.size();
     breadth_first(g, far, visited, order, true);
     std::reverse(order.begin() + first, order.end());
+    if (component && g.degree(v) > 0) {
+      for (size_t k = first; k < order.size(); ++k) (*component)[order[k]] = count;
+      ++count;
+    }
   }
+  if (components) *components = count;
   return order;
 }
 

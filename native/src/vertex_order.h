@@ -23,6 +23,10 @@ struct EdgeGraph {
 EdgeGraph edge_graph(int vertex_count, const std::vector<WeightedEdge>& edges);
 
 // Returns new -> old: the vertex visited k-th is order[k]. Every vertex appears once.
-std::vector<int> locality_order(const EdgeGraph& graph);
+// component (optional): the connected component of each vertex over the graph's
+// edges (0, 1, ... in the order they are reached), -1 for a vertex in no edge;
+// *components: their count.
+std::vector<int> locality_order(const EdgeGraph& graph, std::vector<int>* component = nullptr,
+                                int* components = nullptr);
 
 }  // namespace arap

@@ -12,12 +12,21 @@ namespace arap {
 
 namespace {
 
-struct EdgeEntry {
-  int i, j;
+// One triangle's edge in the group of its smaller vertex: the larger one and the weight.
+struct GroupEntry {
+  int j;
   double w;
-  bool operator<(const EdgeEntry& o) const { return i != o.i ? i < o.i : j < o.j; }
 };
 
+// Sorts a small group by j (a vertex has a handful of edges: insertion sort).
+void sort_group(GroupEntry* first, GroupEntry* last) {
+  for (GroupEntry* e = first + 1; e < last; ++e) {
+    const GroupEntry moving = *e;
+    GroupEntry* hole = e;
+    for (; hole > first && (hole - 1)->j > moving.j; --hole) *hole = *(hole - 1);
+    *hole = moving;
+  }
+}
 
 }  // namespace
 
@@ -33,9 +42,10 @@ std::vector<WeightedEdge> edge_weights(
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)
     for (int k = 0; k < 3; ++k) ++group_begin[std::min(triangles(f, (k + 1) % 3), triangles(f, (k + 2) % 3)) + 1];
   for (int v = 0; v < n; ++v) group_begin[v + 1] += group_begin[v];
-  UninitializedVector<EdgeEntry> grouped(group_begin[n]);  // written before it is read
+  UninitializedVector<GroupEntry> grouped(group_begin[n]);  // written before it is read
   prefault_buffer(grouped);
   std::vector<int> group_end(group_begin.begin(), group_begin.end() - 1);
+  const bool cotangent = kind != Weights::Uniform, clamped = kind == Weights::CotanClamped;
   int degenerate = 0;
   for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
     const int idx[3] = {triangles(f, 0), triangles(f, 1), triangles(f, 2)};
@@ -51,12 +61,13 @@ std::vector<WeightedEdge> edge_weights(
       // The edge opposite corner k.
       const int a = (k + 1) % 3, b = (k + 2) % 3;
       double w = 1.0;
-      if (kind != Weights::Uniform) {
+      if (cotangent) {
         const double c = (p[a] - p[k]).dot(p[b] - p[k]) * inv_twice_area;
-        w = 0.5 * (kind == Weights::CotanClamped ? std::max(c, 0.0) : c);
+        w = 0.5 * (clamped ? std::max(c, 0.0) : c);
       }
-      const int i = std::min(idx[a], idx[b]);
-      grouped[group_end[i]++] = {i, std::max(idx[a], idx[b]), w};
+      GroupEntry& entry = grouped[group_end[std::min(idx[a], idx[b])]++];
+      entry.j = std::max(idx[a], idx[b]);
+      entry.w = w;
     }
   }
   // Each small group sorted by the larger index; repeated edges summed.
@@ -65,15 +76,18 @@ std::vector<WeightedEdge> edge_weights(
   prefault(edges.data(), sizeof(WeightedEdge) * edges.capacity());
   int nonmanifold = 0;
   for (int v = 0; v < n; ++v) {
-    EdgeEntry *first = grouped.data() + group_begin[v], *last = grouped.data() + group_end[v];
-    std::sort(first, last);
-    for (auto s = first; s != last;) {
-      auto e = s;
+    GroupEntry *first = grouped.data() + group_begin[v], *last = grouped.data() + group_end[v];
+    sort_group(first, last);
+    for (const GroupEntry* s = first; s != last;) {
+      const GroupEntry* e = s;
       double w = 0;
       while (e != last && e->j == s->j) w += (e++)->w;
       if (e - s > 2) ++nonmanifold;
-      if (kind == Weights::Uniform) w = 1.0;
-      edges.push_back({s->i, s->j, w});
+      // Field by field: a whole WeightedEdge built first and copied in stalls on the store.
+      WeightedEdge& edge = edges.emplace_back();
+      edge.i = v;
+      edge.j = s->j;
+      edge.w = cotangent ? w : 1.0;
       s = e;
     }
   }

@@ -3,7 +3,10 @@
 // documented fallback counted here.
 #pragma once
 
+#include <algorithm>
 #include <vector>
+
+#include <Eigen/Geometry>
 
 #include "arap/types.h"
 
@@ -69,6 +72,12 @@ int label_components(const Eigen::Ref<const Points>& rest, const Eigen::Ref<cons
 
 bool is_degenerate_triangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c);
 // |(b - a) x (c - a)|, twice the triangle's area, or 0 when it is degenerate.
-double twice_area_unless_degenerate(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c);
+inline double twice_area_unless_degenerate(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                           const Eigen::Vector3d& c) {
+  const double longest2 = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+  const double twice_area = (b - a).cross(c - a).norm();
+  // Also catches three coincident points (longest2 == 0).
+  return twice_area > kDegenerateRelativeArea * longest2 ? twice_area : 0.0;
+}
 
 }  // namespace arap
