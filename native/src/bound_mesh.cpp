@@ -17,17 +17,20 @@ void check_bind_input(const Eigen::Ref<const Points>& rest, const Eigen::Ref<con
   if (n == 0) throw Error(ErrorCode::InvalidInput, "the mesh has no vertices");
   if (n > 100000000) throw Error(ErrorCode::InvalidInput, "more than 100 million vertices are not supported");
   if (triangles.rows() == 0) throw Error(ErrorCode::NoTriangles, "the mesh has no triangles");
-  for (Eigen::Index v = 0; v < n; ++v)
-    if (!rest.row(v).allFinite())
-      throw Error(ErrorCode::NonFinite, "rest position of vertex " + std::to_string(v) + " is not finite (NaN or Inf)");
-  for (Eigen::Index f = 0; f < triangles.rows(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int v = triangles(f, k);
-      if (v < 0 || v >= n)
-        throw Error(ErrorCode::IndexOutOfRange, "triangle " + std::to_string(f) + " refers to vertex " +
-                                                    std::to_string(v) + ", but the mesh has " + std::to_string(n) +
-                                                    " vertices");
-    }
+  // Whole-array tests first (vectorised); the offender is looked for only when one fails.
+  if (!rest.allFinite())
+    for (Eigen::Index v = 0; v < n; ++v)
+      if (!rest.row(v).allFinite())
+        throw Error(ErrorCode::NonFinite, "rest position of vertex " + std::to_string(v) + " is not finite (NaN or Inf)");
+  if (triangles.minCoeff() < 0 || triangles.maxCoeff() >= n)
+    for (Eigen::Index f = 0; f < triangles.rows(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int v = triangles(f, k);
+        if (v < 0 || v >= n)
+          throw Error(ErrorCode::IndexOutOfRange, "triangle " + std::to_string(f) + " refers to vertex " +
+                                                      std::to_string(v) + ", but the mesh has " + std::to_string(n) +
+                                                      " vertices");
+      }
   if (constrained.empty())
     throw Error(ErrorCode::NoConstraints, "no constrained vertices: give at least one fixed or handle vertex");
   std::vector<char> seen(n, 0);
