@@ -6,6 +6,7 @@
 
 #include "arap/errors.h"
 #include "arap/weights.h"
+#include "edge_groups.h"
 #include "prefault.h"
 #include "vertex_order.h"
 
@@ -60,13 +61,11 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   m.report.vertices = m.input_n;
   m.report.triangles = static_cast<int>(triangles.rows());
 
-  EdgeCounts counts;
-  std::vector<WeightedEdge> edges = edge_weights(rest, triangles, weights, &counts);
-  m.report.degenerate_triangles = counts.degenerate_triangles;
-  m.report.nonmanifold_edges = counts.nonmanifold_edges;
+  const EdgeGroups groups = edge_groups(rest, triangles, weights);
+  m.report.degenerate_triangles = groups.degenerate_triangles;
+  m.report.nonmanifold_edges = groups.nonmanifold_edges;
   // Volume::Infill: the lattice nodes follow the mesh's vertices (input index #V + k), with their edges.
   if (infill) {
-    edges.insert(edges.end(), infill->edges.begin(), infill->edges.end());
     m.report.infill_nodes = static_cast<int>(infill->nodes.rows());
     m.report.infill_cells = infill->cells;
   }
@@ -74,7 +73,8 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   // Internal numbering for locality of the per-vertex loops. Its breadth-first
   // passes also find the components over the edges (the non-degenerate
   // triangles and the lattice): component[v] = -1 for a vertex in no edge.
-  const EdgeGraph graph = edge_graph(m.n, edges);
+  const std::vector<WeightedEdge> no_lattice;
+  const EdgeGraph graph = edge_graph(m.n, groups, infill ? infill->edges : no_lattice);
   std::vector<int> component;
   int components = 0;
   m.order = locality_order(graph, &component, &components);

@@ -28,21 +28,31 @@ int breadth_first(const EdgeGraph& g, int start, std::vector<char>& visited, std
 
 }  // namespace
 
-EdgeGraph edge_graph(int n, const std::vector<WeightedEdge>& edges) {
+EdgeGraph edge_graph(int n, const EdgeGroups& groups, const std::vector<WeightedEdge>& extra) {
+  const int mesh_vertices = static_cast<int>(groups.end.size());
   EdgeGraph g;
   g.begin.assign(n + 1, 0);
-  for (const auto& e : edges) ++g.begin[e.i + 1], ++g.begin[e.j + 1];
+  for (int i = 0; i < mesh_vertices; ++i) {
+    g.begin[i + 1] += groups.end[i] - groups.begin[i];
+    for (int k = groups.begin[i]; k < groups.end[i]; ++k) ++g.begin[groups.entries[k].j + 1];
+  }
+  for (const auto& e : extra) ++g.begin[e.i + 1], ++g.begin[e.j + 1];
   for (int v = 0; v < n; ++v) g.begin[v + 1] += g.begin[v];
   g.adjacent.resize(g.begin[n]);
   g.weight.resize(g.begin[n]);
   prefault_buffer(g.adjacent);
   prefault_buffer(g.weight);
   std::vector<int> fill(g.begin.begin(), g.begin.end() - 1);
-  for (const auto& e : edges) {
-    const int a = fill[e.i]++, b = fill[e.j]++;
-    g.adjacent[a] = e.j, g.weight[a] = e.w;
-    g.adjacent[b] = e.i, g.weight[b] = e.w;
-  }
+  auto add = [&](int i, int j, double w) {
+    const int a = fill[i]++, b = fill[j]++;
+    g.adjacent[a] = j, g.weight[a] = w;
+    g.adjacent[b] = i, g.weight[b] = w;
+  };
+  // By increasing i, then j: each vertex meets its smaller neighbours (earlier
+  // groups) before its larger ones (its own group), both in increasing order.
+  for (int i = 0; i < mesh_vertices; ++i)
+    for (int k = groups.begin[i]; k < groups.end[i]; ++k) add(i, groups.entries[k].j, groups.entries[k].w);
+  for (const auto& e : extra) add(e.i, e.j, e.w);
   return g;
 }
 

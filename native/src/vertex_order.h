@@ -7,20 +7,22 @@
 
 #include "arap/weights.h"
 #include "default_init.h"
+#include "edge_groups.h"
 
 namespace arap {
 
 // Both directions of every edge, by vertex (compressed rows): vertex v's
-// neighbours are adjacent[begin[v] .. begin[v + 1]), in the order their edges
-// come in the list (by increasing neighbour for edge_weights()' sorted list),
-// with the edge's weight.
+// neighbours are adjacent[begin[v] .. begin[v + 1]), with the edge's weight:
+// first the mesh's edges (`groups`, the neighbours of each vertex in
+// increasing order), then the `extra` ones (a lattice's) in their order.
+// vertex_count: the mesh's vertices and any others the extra edges reach.
 struct EdgeGraph {
   std::vector<int> begin;
   UninitializedVector<int> adjacent;
   UninitializedVector<double> weight;
   int degree(int v) const { return begin[v + 1] - begin[v]; }
 };
-EdgeGraph edge_graph(int vertex_count, const std::vector<WeightedEdge>& edges);
+EdgeGraph edge_graph(int vertex_count, const EdgeGroups& groups, const std::vector<WeightedEdge>& extra = {});
 
 // Returns new -> old: the vertex visited k-th is order[k]. Every vertex appears once.
 // component (optional): the connected component of each vertex over the graph's

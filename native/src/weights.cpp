@@ -6,23 +6,20 @@
 
 #include "arap/mesh_check.h"
 #include "default_init.h"
+#include "edge_groups.h"
 #include "prefault.h"
 
 namespace arap {
 
 namespace {
 
-// One triangle's edge in the group of its smaller vertex: the larger one and the weight.
-struct GroupEntry {
-  int j;
-  double w;
-};
+using Entry = EdgeGroups::Entry;
 
 // Sorts a small group by j (a vertex has a handful of edges: insertion sort).
-void sort_group(GroupEntry* first, GroupEntry* last) {
-  for (GroupEntry* e = first + 1; e < last; ++e) {
-    const GroupEntry moving = *e;
-    GroupEntry* hole = e;
+void sort_group(Entry* first, Entry* last) {
+  for (Entry* e = first + 1; e < last; ++e) {
+    const Entry moving = *e;
+    Entry* hole = e;
     for (; hole > first && (hole - 1)->j > moving.j; --hole) *hole = *(hole - 1);
     *hole = moving;
   }
@@ -30,30 +27,35 @@ void sort_group(GroupEntry* first, GroupEntry* last) {
 
 }  // namespace
 
-std::vector<WeightedEdge> edge_weights(
-    const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& rest,
-    const Eigen::Ref<const Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>& triangles, Weights kind,
-    EdgeCounts* counts) {
+int EdgeGroups::edge_count() const {
+  int count = 0;
+  for (size_t v = 0; v < end.size(); ++v) count += end[v] - begin[v];
+  return count;
+}
+
+EdgeGroups edge_groups(const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& rest,
+                       const Eigen::Ref<const Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>& triangles,
+                       Weights kind) {
   // Each triangle's three edges, grouped by their smaller index: a counting
   // pass over the indices (every triangle, so a group may keep unused room
   // for degenerate ones), then the weights written straight into the groups.
   const int n = static_cast<int>(rest.rows());
-  std::vector<int> group_begin(n + 1, 0);
+  EdgeGroups g;
+  g.begin.assign(n + 1, 0);
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)
-    for (int k = 0; k < 3; ++k) ++group_begin[std::min(triangles(f, (k + 1) % 3), triangles(f, (k + 2) % 3)) + 1];
-  for (int v = 0; v < n; ++v) group_begin[v + 1] += group_begin[v];
-  UninitializedVector<GroupEntry> grouped(group_begin[n]);  // written before it is read
-  prefault_buffer(grouped);
-  std::vector<int> group_end(group_begin.begin(), group_begin.end() - 1);
+    for (int k = 0; k < 3; ++k) ++g.begin[std::min(triangles(f, (k + 1) % 3), triangles(f, (k + 2) % 3)) + 1];
+  for (int v = 0; v < n; ++v) g.begin[v + 1] += g.begin[v];
+  g.entries.resize(g.begin[n]);  // written before it is read
+  prefault_buffer(g.entries);
+  g.end.assign(g.begin.begin(), g.begin.end() - 1);
   const bool cotangent = kind != Weights::Uniform, clamped = kind == Weights::CotanClamped;
-  int degenerate = 0;
   for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
     const int idx[3] = {triangles(f, 0), triangles(f, 1), triangles(f, 2)};
     const Eigen::Vector3d p[3] = {rest.row(idx[0]), rest.row(idx[1]), rest.row(idx[2])};
     // |u x v| is twice the area at every corner: cot = (u . v) / |u x v| needs one square root.
     const double twice_area = twice_area_unless_degenerate(p[0], p[1], p[2]);
     if (twice_area == 0) {
-      ++degenerate;
+      ++g.degenerate_triangles;
       continue;
     }
     const double inv_twice_area = 1.0 / twice_area;
@@ -65,35 +67,49 @@ std::vector<WeightedEdge> edge_weights(
         const double c = (p[a] - p[k]).dot(p[b] - p[k]) * inv_twice_area;
         w = 0.5 * (clamped ? std::max(c, 0.0) : c);
       }
-      GroupEntry& entry = grouped[group_end[std::min(idx[a], idx[b])]++];
+      Entry& entry = g.entries[g.end[std::min(idx[a], idx[b])]++];
       entry.j = std::max(idx[a], idx[b]);
       entry.w = w;
     }
   }
-  // Each small group sorted by the larger index; repeated edges summed.
-  std::vector<WeightedEdge> edges;
-  edges.reserve(group_begin[n] / 2 + 1);
-  prefault(edges.data(), sizeof(WeightedEdge) * edges.capacity());
-  int nonmanifold = 0;
+  // Each small group sorted by the larger index, its repeated edges summed in place.
   for (int v = 0; v < n; ++v) {
-    GroupEntry *first = grouped.data() + group_begin[v], *last = grouped.data() + group_end[v];
+    Entry *first = g.entries.data() + g.begin[v], *last = g.entries.data() + g.end[v];
     sort_group(first, last);
-    for (const GroupEntry* s = first; s != last;) {
-      const GroupEntry* e = s;
+    Entry* out = first;
+    for (const Entry* s = first; s != last;) {
+      const Entry* e = s;
       double w = 0;
       while (e != last && e->j == s->j) w += (e++)->w;
-      if (e - s > 2) ++nonmanifold;
+      if (e - s > 2) ++g.nonmanifold_edges;
+      out->j = s->j;
+      out->w = cotangent ? w : 1.0;
+      ++out;
+      s = e;
+    }
+    g.end[v] = static_cast<int>(out - g.entries.data());
+  }
+  return g;
+}
+
+std::vector<WeightedEdge> edge_weights(
+    const Eigen::Ref<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>& rest,
+    const Eigen::Ref<const Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>>& triangles, Weights kind,
+    EdgeCounts* counts) {
+  const EdgeGroups g = edge_groups(rest, triangles, kind);
+  std::vector<WeightedEdge> edges;
+  edges.reserve(g.edge_count());
+  for (int v = 0; v + 1 < static_cast<int>(g.begin.size()); ++v)
+    for (int k = g.begin[v]; k < g.end[v]; ++k) {
       // Field by field: a whole WeightedEdge built first and copied in stalls on the store.
       WeightedEdge& edge = edges.emplace_back();
       edge.i = v;
-      edge.j = s->j;
-      edge.w = cotangent ? w : 1.0;
-      s = e;
+      edge.j = g.entries[k].j;
+      edge.w = g.entries[k].w;
     }
-  }
   if (counts) {
-    counts->degenerate_triangles = degenerate;
-    counts->nonmanifold_edges = nonmanifold;
+    counts->degenerate_triangles = g.degenerate_triangles;
+    counts->nonmanifold_edges = g.nonmanifold_edges;
   }
   return edges;
 }
