@@ -84,9 +84,10 @@ void split(const Eigen::SparseMatrix<double>& A, std::vector<int> part[3]) {
 
 // The lower triangle of P A P^T (row i of it is row perm[i] of A; A
 // symmetric, both triangles stored), the rows of each column in increasing
-// order: new rows are visited in order and each appends itself to the
-// columns it meets at or left of the diagonal. Half of the full permuted
-// matrix, which the factorization does not read.
+// order: column j is column perm[j] of A renumbered, its rows below the
+// diagonal kept and sorted (a handful: insertion sort), so the writes are
+// sequential. Half of the full permuted matrix, which the factorization does
+// not read.
 Eigen::SparseMatrix<double> permuted_lower(const Eigen::SparseMatrix<double>& A, const Eigen::VectorXi& perm) {
   const int n = static_cast<int>(A.rows());
   const int* outer = A.outerIndexPtr();
@@ -95,22 +96,27 @@ Eigen::SparseMatrix<double> permuted_lower(const Eigen::SparseMatrix<double>& A,
   std::vector<int> position(n);  // old -> new
   for (int i = 0; i < n; ++i) position[perm[i]] = i;
   Eigen::SparseMatrix<double> L(n, n);
-  int* start = L.outerIndexPtr();  // zero after the constructor: counts first
-  for (int i = 0; i < n; ++i)
-    for (int p = outer[perm[i]]; p < outer[perm[i] + 1]; ++p)
-      if (position[inner[p]] <= i) ++start[position[inner[p]] + 1];
-  for (int j = 0; j < n; ++j) start[j + 1] += start[j];
-  L.resizeNonZeros(start[n]);
+  // Room for all of A's entries; about half are kept (all of them with the
+  // diagonal, for a symmetric pattern): only those pages are mapped ahead.
+  L.resizeNonZeros(A.nonZeros());
+  int* start = L.outerIndexPtr();
   int* rows = L.innerIndexPtr();
   double* values = L.valuePtr();
-  prefault(rows, sizeof(int) * start[n]);
-  prefault(values, sizeof(double) * start[n]);
-  std::vector<int> fill(start, start + n);
-  for (int i = 0; i < n; ++i)
-    for (int p = outer[perm[i]]; p < outer[perm[i] + 1]; ++p) {
-      const int j = position[inner[p]];
-      if (j <= i) rows[fill[j]] = i, values[fill[j]++] = value[p];
+  prefault(rows, sizeof(int) * ((A.nonZeros() + n) / 2));
+  prefault(values, sizeof(double) * ((A.nonZeros() + n) / 2));
+  int p = 0;
+  for (int j = 0; j < n; ++j) {
+    start[j] = p;
+    for (int q = outer[perm[j]]; q < outer[perm[j] + 1]; ++q) {
+      const int i = position[inner[q]];
+      if (i < j) continue;
+      int hole = p++;
+      for (; hole > start[j] && rows[hole - 1] > i; --hole) rows[hole] = rows[hole - 1], values[hole] = values[hole - 1];
+      rows[hole] = i, values[hole] = value[q];
     }
+  }
+  start[n] = p;
+  L.resizeNonZeros(p);  // no reallocation: only the count shrinks
   return L;
 }
 
