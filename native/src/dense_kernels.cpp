@@ -1,5 +1,6 @@
 #include "dense_kernels.h"
 
+#include <cmath>
 #include <cstddef>
 
 // GCC and Clang on x86-64: the kernels are compiled for AVX2 + FMA whatever
@@ -156,5 +157,25 @@ void lower_product_avx2(const double*, long, long, long, long, double*, std::vec
 void solve_transposed_avx2(double*, long, long, const double*, long, long, std::vector<double>&) {}
 
 #endif
+
+bool small_cholesky_in_place(double* A, long lda, long w) {
+  // Column by column (left-looking): L(k, k) = sqrt(A(k, k) - sum_p L(k, p)^2),
+  // L(r, k) = (A(r, k) - sum_p L(r, p) L(k, p)) / L(k, k) for r > k, p < k.
+  auto at = [&](long r, long c) -> double& { return A[r + c * lda]; };
+  for (long k = 0; k < w; ++k) {
+    double pivot = at(k, k);
+    for (long p = 0; p < k; ++p) pivot -= at(k, p) * at(k, p);
+    if (!(pivot > 0)) return false;
+    const double diagonal = std::sqrt(pivot);
+    at(k, k) = diagonal;
+    const double inverse = 1.0 / diagonal;
+    for (long r = k + 1; r < w; ++r) {
+      double sum = at(r, k);
+      for (long p = 0; p < k; ++p) sum -= at(r, p) * at(k, p);
+      at(r, k) = sum * inverse;
+    }
+  }
+  return true;
+}
 
 }  // namespace arap

@@ -28,4 +28,12 @@ void lower_product_avx2(const double* A, long lda, long m, long k, long w, doubl
 void solve_transposed_avx2(double* B, long ldb, long rows, const double* L, long ldl, long w,
                            std::vector<double>& pack);
 
+// A = L L^T in place for a small symmetric positive definite block (w <=
+// kSmallCholesky): column-major, leading dimension lda, only the lower
+// triangle read and written. Plain loops: for these sizes a general blocked
+// factorization spends more time deciding than computing. False (A partly
+// overwritten) when a pivot is not > 0 (not positive definite, or NaN).
+constexpr long kSmallCholesky = 16;
+bool small_cholesky_in_place(double* A, long lda, long w);
+
 }  // namespace arap

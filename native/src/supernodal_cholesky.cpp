@@ -271,9 +271,13 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
     }
     // L11 L11^T = A11 (dense Cholesky), then L21 = A21 L11^-T.
     Block diagonal(block, width, width, Eigen::OuterStride<>(height));
-    Eigen::Ref<Eigen::MatrixXd> diagonal_ref(diagonal);
-    // Eigen::LLT's own in-place factorization, without the L1 norm LLT computes first (for rcond()).
-    if (Eigen::internal::llt_inplace<double, Eigen::Lower>::blocked(diagonal_ref) != -1) return false;
+    if (width <= kSmallCholesky) {
+      if (!small_cholesky_in_place(block, height, width)) return false;
+    } else {
+      Eigen::Ref<Eigen::MatrixXd> diagonal_ref(diagonal);
+      // Eigen::LLT's own in-place factorization, without the L1 norm LLT computes first (for rcond()).
+      if (Eigen::internal::llt_inplace<double, Eigen::Lower>::blocked(diagonal_ref) != -1) return false;
+    }
     if (height > width) {
       if (avx2) {
         solve_transposed_avx2(block + width, height, height - width, block, height, width, w.pack);

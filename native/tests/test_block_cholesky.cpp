@@ -4,6 +4,7 @@
 // and factor), and a clean refusal of matrices that are not positive definite.
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/SparseCholesky>
 #include <cstdlib>
 #include <cstring>
@@ -231,6 +232,39 @@ TEST(DenseKernels, LowerProductAndTriangularSolveMatchPlainLoops) {
         arap::solve_transposed_avx2(X.data(), m, m, L.data(), w, w, pack);
         EXPECT_LT((X * L.transpose() - B).norm(), 1e-12 * B.norm()) << m << " " << w;
       }
+}
+
+// The small diagonal blocks' Cholesky against Eigen's LLT, inside a taller
+// column-major block as the supernodes store them: only the w by w lower
+// triangle changes; a matrix that is not positive definite, or holds a NaN, is refused.
+TEST(DenseKernels, SmallCholeskyMatchesEigenAndRefusesIndefinite) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (long w = 1; w <= arap::kSmallCholesky; ++w) {
+    Eigen::MatrixXd M(w, w);
+    for (long c = 0; c < w; ++c)
+      for (long r = 0; r < w; ++r) M(r, c) = u(rng);
+    const Eigen::MatrixXd A = M * M.transpose() + w * Eigen::MatrixXd::Identity(w, w);
+    const long lda = w + 3;
+    Eigen::MatrixXd block = Eigen::MatrixXd::Constant(lda, w, 7.0);  // 7: the entries that must stay
+    block.topRows(w).triangularView<Eigen::Lower>() = A;
+    ASSERT_TRUE(arap::small_cholesky_in_place(block.data(), lda, w)) << w;
+    const Eigen::MatrixXd L = block.topRows(w).triangularView<Eigen::Lower>();
+    const Eigen::MatrixXd expected = Eigen::LLT<Eigen::MatrixXd>(A).matrixL();
+    EXPECT_LT((L - expected).norm(), 1e-13 * expected.norm()) << w;
+    EXPECT_LT((L * L.transpose() - A).norm(), 1e-13 * A.norm()) << w;
+    for (long c = 0; c < w; ++c) {
+      for (long r = 0; r < c; ++r) EXPECT_EQ(block(r, c), 7.0) << "upper triangle written, w " << w;
+      for (long r = w; r < lda; ++r) EXPECT_EQ(block(r, c), 7.0) << "rows below the block written, w " << w;
+    }
+    // The last pivot made negative; then a NaN on the diagonal.
+    Eigen::MatrixXd bad = A;
+    bad(w - 1, w - 1) = -1.0;
+    EXPECT_FALSE(arap::small_cholesky_in_place(bad.data(), w, w)) << w;
+    bad = A;
+    bad(0, 0) = NAN;
+    EXPECT_FALSE(arap::small_cholesky_in_place(bad.data(), w, w)) << w;
+  }
 }
 
 }  // namespace
