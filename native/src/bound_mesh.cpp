@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "arap/errors.h"
@@ -12,18 +13,37 @@
 
 namespace arap {
 
+namespace {
+
+bool all_finite(const Eigen::Ref<const Points>& p) {
+  bool bad = false;
+  for (Eigen::Index r = 0; r < p.rows(); ++r)
+    for (int d = 0; d < 3; ++d) bad |= !(std::abs(p(r, d)) <= std::numeric_limits<double>::max());  // NaN too
+  return !bad;
+}
+
+// Every index in [0, n).
+bool all_below(const Eigen::Ref<const Triangles>& t, int n) {
+  bool bad = false;
+  for (Eigen::Index f = 0; f < t.rows(); ++f)
+    for (int k = 0; k < 3; ++k) bad |= static_cast<unsigned>(t(f, k)) >= static_cast<unsigned>(n);  // negative too
+  return !bad;
+}
+
+}  // namespace
+
 void check_bind_input(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
                       const std::vector<int>& constrained) {
   const Eigen::Index n = rest.rows();
   if (n == 0) throw Error(ErrorCode::InvalidInput, "the mesh has no vertices");
   if (n > 100000000) throw Error(ErrorCode::InvalidInput, "more than 100 million vertices are not supported");
   if (triangles.rows() == 0) throw Error(ErrorCode::NoTriangles, "the mesh has no triangles");
-  // Whole-array tests first (vectorised); the offender is looked for only when one fails.
-  if (!rest.allFinite())
+  // Whole-array tests first (branch-free, vectorisable loops); the offender is looked for only when one fails.
+  if (!all_finite(rest))
     for (Eigen::Index v = 0; v < n; ++v)
       if (!rest.row(v).allFinite())
         throw Error(ErrorCode::NonFinite, "rest position of vertex " + std::to_string(v) + " is not finite (NaN or Inf)");
-  if (triangles.minCoeff() < 0 || triangles.maxCoeff() >= n)
+  if (!all_below(triangles, static_cast<int>(n)))
     for (Eigen::Index f = 0; f < triangles.rows(); ++f)
       for (int k = 0; k < 3; ++k) {
         const int v = triangles(f, k);

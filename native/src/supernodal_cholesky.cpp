@@ -351,6 +351,15 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
     for (int c = 0; c < first[s + 1] - first[s]; ++c) {
       const double* column = value.data() + value_start[s] + c * height;
       if (!(column[c] > 0) || !std::isfinite(column[c])) return L.clear(), false;
+      if (height - c == count[first[s] + c]) {
+        // No row of the block is outside the column's structure (no merge added
+        // any): copied whole, without the test that chains each entry to the last.
+        std::copy(row + c, row + height, inner + p);
+        std::copy(column + c, column + height, value.data() + p);  // moves back or stays: a forward copy is safe
+        p += height - c;
+        L.outer[first[s] + c + 1] = p;
+        continue;
+      }
       inner[p] = row[c], value[p++] = column[c];
       for (long r = c + 1; r < height; ++r) {
         const double v = column[r];
