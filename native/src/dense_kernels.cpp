@@ -1,5 +1,6 @@
 #include "dense_kernels.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 
@@ -174,6 +175,24 @@ bool small_cholesky_in_place(double* A, long lda, long w) {
       for (long p = 0; p < k; ++p) sum -= at(r, p) * at(k, p);
       at(r, k) = sum * inverse;
     }
+  }
+  return true;
+}
+
+bool blocked_cholesky_avx2(double* A, long lda, long w, std::vector<double>& update, std::vector<double>& pack) {
+  for (long k0 = 0; k0 < w; k0 += kSmallCholesky) {
+    const long panel = std::min(kSmallCholesky, w - k0), below = w - k0;
+    double* top = A + k0 + k0 * lda;  // the panel's diagonal entry
+    if (k0 > 0) {
+      // A(k0:w, panel) -= L(k0:w, 0:k0) L(panel, 0:k0)^T, the lower part of the panel's square.
+      const long ldc = product_rows(below);
+      update.resize(static_cast<std::size_t>(ldc * product_columns(panel)));
+      lower_product_avx2(A + k0, lda, below, panel, k0, update.data(), pack);
+      for (long c = 0; c < panel; ++c)
+        for (long r = c; r < below; ++r) top[r + c * lda] -= update[r + c * ldc];
+    }
+    if (!small_cholesky_in_place(top, lda, panel)) return false;
+    if (below > panel) solve_transposed_avx2(top + panel, lda, below - panel, top, lda, panel, pack);
   }
   return true;
 }

@@ -36,4 +36,11 @@ void solve_transposed_avx2(double* B, long ldb, long rows, const double* L, long
 constexpr long kSmallCholesky = 16;
 bool small_cholesky_in_place(double* A, long lda, long w);
 
+// A = L L^T in place for a larger block (any w), by panels of kSmallCholesky
+// columns: each panel takes the product of the columns left of it
+// (lower_product_avx2), is factored by small_cholesky_in_place, and solves
+// the rows below it (solve_transposed_avx2). `update` and `pack` are scratch.
+// Only call when have_avx2_fma(). False as small_cholesky_in_place.
+bool blocked_cholesky_avx2(double* A, long lda, long w, std::vector<double>& update, std::vector<double>& pack);
+
 }  // namespace arap

@@ -273,6 +273,8 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
     Block diagonal(block, width, width, Eigen::OuterStride<>(height));
     if (width <= kSmallCholesky) {
       if (!small_cholesky_in_place(block, height, width)) return false;
+    } else if (avx2) {
+      if (!blocked_cholesky_avx2(block, height, width, update, w.pack)) return false;
     } else {
       Eigen::Ref<Eigen::MatrixXd> diagonal_ref(diagonal);
       // Eigen::LLT's own in-place factorization, without the L1 norm LLT computes first (for rcond()).

@@ -267,6 +267,38 @@ TEST(DenseKernels, SmallCholeskyMatchesEigenAndRefusesIndefinite) {
   }
 }
 
+// The panel-by-panel factorization of the larger diagonal blocks against
+// Eigen's LLT, on sizes around the panel width and well beyond it; refusal as above.
+TEST(DenseKernels, BlockedCholeskyMatchesEigenAndRefusesIndefinite) {
+  if (!arap::have_avx2_fma()) GTEST_SKIP() << "no AVX2 + FMA on this processor: Eigen's LLT runs instead";
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<double> update, pack;
+  for (long w : {1L, 15L, 16L, 17L, 31L, 32L, 33L, 50L, 97L, 200L}) {
+    Eigen::MatrixXd M(w, w);
+    for (long c = 0; c < w; ++c)
+      for (long r = 0; r < w; ++r) M(r, c) = u(rng);
+    const Eigen::MatrixXd A = M * M.transpose() + w * Eigen::MatrixXd::Identity(w, w);
+    const long lda = w + 5;
+    Eigen::MatrixXd block = Eigen::MatrixXd::Constant(lda, w, 7.0);
+    block.topRows(w).triangularView<Eigen::Lower>() = A;
+    ASSERT_TRUE(arap::blocked_cholesky_avx2(block.data(), lda, w, update, pack)) << w;
+    const Eigen::MatrixXd L = block.topRows(w).triangularView<Eigen::Lower>();
+    const Eigen::MatrixXd expected = Eigen::LLT<Eigen::MatrixXd>(A).matrixL();
+    EXPECT_LT((L - expected).norm(), 1e-13 * expected.norm()) << w;
+    for (long c = 0; c < w; ++c) {
+      for (long r = 0; r < c; ++r) EXPECT_EQ(block(r, c), 7.0) << "upper triangle written, w " << w;
+      for (long r = w; r < lda; ++r) EXPECT_EQ(block(r, c), 7.0) << "rows below the block written, w " << w;
+    }
+    Eigen::MatrixXd bad = A;
+    bad(w - 1, w - 1) = -1.0;
+    EXPECT_FALSE(arap::blocked_cholesky_avx2(bad.data(), w, w, update, pack)) << w;
+    bad = A;
+    bad(w / 2, w / 2) = NAN;
+    EXPECT_FALSE(arap::blocked_cholesky_avx2(bad.data(), w, w, update, pack)) << w;
+  }
+}
+
 }  // namespace
 
 // The portable path (Eigen's dense products, what a processor without AVX2
