@@ -40,7 +40,11 @@ bool small_cholesky_in_place(double* A, long lda, long w);
 // columns: each panel takes the product of the columns left of it
 // (lower_product_avx2), is factored by small_cholesky_in_place, and solves
 // the rows below it (solve_transposed_avx2). `update` and `pack` are scratch.
-// Only call when have_avx2_fma(). False as small_cholesky_in_place.
+// Only call when have_avx2_fma(). False as small_cholesky_in_place. Each
+// panel reads every column left of it again: for blocks wider than
+// kPanelCholeskyMax, whose columns no longer stay in cache, Eigen's blocked
+// LLT (which packs for the caches) is the faster one.
+constexpr long kPanelCholeskyMax = 128;
 bool blocked_cholesky_avx2(double* A, long lda, long w, std::vector<double>& update, std::vector<double>& pack);
 
 }  // namespace arap

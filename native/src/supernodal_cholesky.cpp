@@ -273,7 +273,7 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
     Block diagonal(block, width, width, Eigen::OuterStride<>(height));
     if (width <= kSmallCholesky) {
       if (!small_cholesky_in_place(block, height, width)) return false;
-    } else if (avx2) {
+    } else if (avx2 && width <= kPanelCholeskyMax) {
       if (!blocked_cholesky_avx2(block, height, width, update, w.pack)) return false;
     } else {
       Eigen::Ref<Eigen::MatrixXd> diagonal_ref(diagonal);
