@@ -7,6 +7,7 @@
 #include <Eigen/SparseCholesky>
 
 #include "prefault.h"
+#include "sorted_column.h"
 #include "vector_halves.h"
 #include "worker_threads.h"
 
@@ -85,9 +86,9 @@ void split(const Eigen::SparseMatrix<double>& A, std::vector<int> part[3]) {
 // The lower triangle of P A P^T (row i of it is row perm[i] of A; A
 // symmetric, both triangles stored), the rows of each column in increasing
 // order: column j is column perm[j] of A renumbered, its rows below the
-// diagonal kept and sorted (a handful: insertion sort), so the writes are
-// sequential. Half of the full permuted matrix, which the factorization does
-// not read.
+// diagonal kept in increasing order as they come (insert_sorted), so the
+// writes are sequential. Half of the full permuted matrix, which the
+// factorization does not read.
 Eigen::SparseMatrix<double> permuted_lower(const Eigen::SparseMatrix<double>& A, const Eigen::VectorXi& perm) {
   const int n = static_cast<int>(A.rows());
   const int* outer = A.outerIndexPtr();
@@ -109,10 +110,7 @@ Eigen::SparseMatrix<double> permuted_lower(const Eigen::SparseMatrix<double>& A,
     start[j] = p;
     for (int q = outer[perm[j]]; q < outer[perm[j] + 1]; ++q) {
       const int i = position[inner[q]];
-      if (i < j) continue;
-      int hole = p++;
-      for (; hole > start[j] && rows[hole - 1] > i; --hole) rows[hole] = rows[hole - 1], values[hole] = values[hole - 1];
-      rows[hole] = i, values[hole] = value[q];
+      if (i >= j) insert_sorted(rows, values, start[j], p, i, value[q]);
     }
   }
   start[n] = p;

@@ -9,6 +9,7 @@
 #include "arap/weights.h"
 #include "edge_groups.h"
 #include "prefault.h"
+#include "sorted_column.h"
 #include "vertex_order.h"
 
 namespace arap {
@@ -97,7 +98,7 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   const EdgeGraph graph = edge_graph(m.n, groups, infill ? infill->edges : no_lattice);
   std::vector<int> component;
   int components = 0;
-  m.order = locality_order(graph, &component, &components);
+  m.order = locality_order(graph, component, components);
   m.rank.assign(m.n, 0);
   for (int k = 0; k < m.n; ++k) m.rank[m.order[k]] = k;
   m.rest.resize(m.n, 3);
@@ -217,19 +218,11 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
       if (infill && m.order[i] >= m.input_n && m.order[j] >= m.input_n) w *= lattice_scale;
       diagonal += w;
       if (m.free_row[j] >= 0)
-        inner[p] = m.free_row[j], values[p++] = -w;
+        insert_sorted(inner, values, column_begin, p, m.free_row[j], -w);
       else
         m.couplings.push_back({r, slot_of[j], w});
     }
-    inner[p] = r, values[p++] = diagonal;
-    // The column's rows in increasing order (a handful: insertion sort, rows are distinct).
-    for (int a = column_begin + 1; a < p; ++a) {
-      const int row = inner[a];
-      const double value = values[a];
-      int hole = a;
-      for (; hole > column_begin && inner[hole - 1] > row; --hole) inner[hole] = inner[hole - 1], values[hole] = values[hole - 1];
-      inner[hole] = row, values[hole] = value;
-    }
+    insert_sorted(inner, values, column_begin, p, r, diagonal);
     outer[r + 1] = p;
   }
   m.laplacian_ff.resizeNonZeros(p);  // no reallocation: only the count shrinks

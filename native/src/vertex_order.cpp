@@ -56,14 +56,14 @@ EdgeGraph edge_graph(int n, const EdgeGroups& groups, const std::vector<Weighted
   return g;
 }
 
-std::vector<int> locality_order(const EdgeGraph& g, std::vector<int>* component, int* components) {
+std::vector<int> locality_order(const EdgeGraph& g, std::vector<int>& component, int& components) {
   const int n = static_cast<int>(g.begin.size()) - 1;
   std::vector<char> visited(n, 0), probe_visited(n, 0);
   std::vector<int> order, probe;
   order.reserve(n);
   probe.reserve(n);
-  if (component) component->assign(n, -1);
-  int count = 0;
+  component.assign(n, -1);
+  components = 0;
   for (int v = 0; v < n; ++v) {
     if (visited[v]) continue;
     // A far start: the last vertex of a breadth-first pass from v.
@@ -72,12 +72,10 @@ std::vector<int> locality_order(const EdgeGraph& g, std::vector<int>* component,
     const size_t first = order.size();
     breadth_first(g, far, visited, order, true);
     std::reverse(order.begin() + first, order.end());
-    if (component && g.degree(v) > 0) {
-      for (size_t k = first; k < order.size(); ++k) (*component)[order[k]] = count;
-      ++count;
-    }
+    if (g.degree(v) == 0) continue;  // a vertex in no edge: in no component
+    for (size_t k = first; k < order.size(); ++k) component[order[k]] = components;
+    ++components;
   }
-  if (components) *components = count;
   return order;
 }
 

@@ -22,13 +22,12 @@ struct EdgeGraph {
   UninitializedVector<double> weight;
   int degree(int v) const { return begin[v + 1] - begin[v]; }
 };
-EdgeGraph edge_graph(int vertex_count, const EdgeGroups& groups, const std::vector<WeightedEdge>& extra = {});
+EdgeGraph edge_graph(int vertex_count, const EdgeGroups& groups, const std::vector<WeightedEdge>& extra);
 
 // Returns new -> old: the vertex visited k-th is order[k]. Every vertex appears once.
-// component (optional): the connected component of each vertex over the graph's
-// edges (0, 1, ... in the order they are reached), -1 for a vertex in no edge;
-// *components: their count.
-std::vector<int> locality_order(const EdgeGraph& graph, std::vector<int>* component = nullptr,
-                                int* components = nullptr);
+// Its breadth-first passes also give each vertex's connected component over
+// the graph's edges (0 .. components - 1 in the order they are reached), -1
+// for a vertex in no edge.
+std::vector<int> locality_order(const EdgeGraph& graph, std::vector<int>& component, int& components);
 
 }  // namespace arap
