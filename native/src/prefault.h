@@ -3,6 +3,8 @@
 // as much CPU (Linux >= 5.14, MADV_POPULATE_WRITE; elsewhere, or when the
 // kernel refuses, nothing happens and the pages fault in as usual). Only for
 // memory the caller will write anyway: it becomes resident now, not later.
+// Whole 2 MiB stretches of it are offered to transparent huge pages (unless
+// ARAP_NO_HUGE_PAGES is set in the environment).
 #pragma once
 
 #include <cstddef>
