@@ -39,7 +39,7 @@ struct BoundMesh {
   // Spokes of vertex i: [spoke_begin[i], spoke_begin[i + 1]).
   std::vector<int> spoke_begin;
   std::vector<int> neighbor;
-  UninitializedVector<Spoke> spokes;
+  LargeBuffer<Spoke> spokes;
   std::vector<double> rest_spoke_energy;  // sum_j w_ij |p_i - p_j|^2 (rest), per vertex
   std::vector<double> g_sum;              // G_i = sum_j g_ij, 3 per vertex
   std::vector<double> stiffness;          // s_i, per vertex (all 1 unless given)

@@ -1,7 +1,8 @@
 #include "prefault.h"
 
+#include "large_allocation.h"
+
 #include <cstdint>
-#include <cstdlib>
 
 #if defined(__linux__)
 #include <sys/mman.h>
@@ -29,10 +30,9 @@ void prefault(void* data, std::size_t bytes) {
   // transparent huge pages (where the system allows it on request, the
   // default "madvise" setting): one fault per 2 MiB instead of 512. The
   // buffer is written in full, so no huge page holds memory nobody uses.
-  const bool huge_pages = !std::getenv("ARAP_NO_HUGE_PAGES");  // read each time: a test switches it
   constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
   const std::uintptr_t huge_begin = (begin + kHuge - 1) / kHuge * kHuge, huge_end = end / kHuge * kHuge;
-  if (huge_pages && huge_end > huge_begin)
+  if (huge_end > huge_begin && huge_pages_wanted())
     madvise(reinterpret_cast<void*>(huge_begin), huge_end - huge_begin, MADV_HUGEPAGE);
 #endif
   madvise(reinterpret_cast<void*>(begin), end - begin, MADV_POPULATE_WRITE);

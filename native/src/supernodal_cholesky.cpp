@@ -198,7 +198,7 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
   // C = L_d(rows from the cursor, :) L_d(rows inside the target, :)^T,
   // subtracted through `map` (row -> position in the target's block).
   // Each block is zeroed when its supernode comes (in cache, just before use), not all up front.
-  UninitializedVector<double> value(static_cast<size_t>(value_start[m]));
+  LargeBuffer<double> value(static_cast<size_t>(value_start[m]));
   prefault_buffer(value);
   const bool avx2 = have_avx2_fma() && !std::getenv("ARAP_NO_AVX2");
   std::vector<int> waiting_next(m, -1);

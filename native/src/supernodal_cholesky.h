@@ -26,8 +26,8 @@ namespace arap {
 // introduced are dropped.
 struct SparseFactor {
   std::vector<long> outer;  // n + 1 column starts
-  UninitializedVector<int> inner;  // row of each entry
-  UninitializedVector<double> value;
+  LargeBuffer<int> inner;  // row of each entry
+  LargeBuffer<double> value;
   void clear() { *this = SparseFactor(); }
 };
 

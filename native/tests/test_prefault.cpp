@@ -1,7 +1,9 @@
-// prefault (native/src/prefault.h): mapping a buffer's pages ahead keeps its
-// contents and its neighbours', makes the pages resident, and offers the whole
-// 2 MiB stretches inside it to transparent huge pages unless
-// ARAP_NO_HUGE_PAGES is set.
+// Large buffers and their pages. prefault (native/src/prefault.h): mapping a
+// buffer's pages ahead keeps its contents and its neighbours', makes the pages
+// resident, and offers the whole 2 MiB stretches inside it to transparent huge
+// pages unless ARAP_NO_HUGE_PAGES is set. allocate_large and LargeBuffer
+// (large_allocation.h, default_init.h): 2 MiB-aligned zeroed memory, usable to
+// the last byte asked for, offered to huge pages the same way.
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -13,6 +15,8 @@
 #include <unistd.h>
 #include <vector>
 
+#include "default_init.h"
+#include "large_allocation.h"
 #include "prefault.h"
 
 namespace {
@@ -102,6 +106,47 @@ TEST(Prefault, OffersWhole2MiBStretchesToHugePagesUnlessSwitchedOff) {
   arap::prefault(off.data + 1000, 6 * kMiB);
   EXPECT_FALSE(advised_huge(off.data, off.data + off.size));
   unsetenv("ARAP_NO_HUGE_PAGES");
+}
+
+TEST(LargeAllocation, AlignedZeroedWritableToTheLastByteAndAdvisedUnlessSwitchedOff) {
+  unsetenv("ARAP_NO_HUGE_PAGES");
+  // Sizes around the rounding of the last partial 2 MiB (kept as is below 1 MiB of it, made whole above).
+  for (const std::size_t bytes : {arap::kLargeAllocation, 2 * kMiB, 2 * kMiB + 4096 + 5, 3 * kMiB - 1, 3 * kMiB + 7,
+                                  5 * kMiB + 3 * kMiB / 4}) {
+    auto* data = static_cast<unsigned char*>(arap::allocate_large(bytes));
+    ASSERT_NE(data, nullptr);
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(data) % (2 * kMiB), 0u) << bytes;
+    std::size_t nonzero = 0;
+    for (std::size_t k = 0; k < bytes; ++k) nonzero += data[k] != 0;
+    EXPECT_EQ(nonzero, 0u) << bytes;
+    for (std::size_t k = 0; k < bytes; ++k) data[k] = static_cast<unsigned char>(k * 7);
+    for (std::size_t k = 0; k < bytes; k += 4099) ASSERT_EQ(data[k], static_cast<unsigned char>(k * 7)) << bytes;
+    ASSERT_EQ(data[bytes - 1], static_cast<unsigned char>((bytes - 1) * 7)) << bytes;
+    // Every size here maps at least one whole 2 MiB (1 MiB is at least half of its 2 MiB).
+    if (transparent_huge_pages_configured()) EXPECT_TRUE(advised_huge(data, data + bytes)) << bytes;
+    arap::free_large(data, bytes);
+  }
+  setenv("ARAP_NO_HUGE_PAGES", "1", 1);
+  void* off = arap::allocate_large(4 * kMiB);
+  EXPECT_FALSE(advised_huge(off, static_cast<unsigned char*>(off) + 4 * kMiB));
+  arap::free_large(off, 4 * kMiB);
+  unsetenv("ARAP_NO_HUGE_PAGES");
+}
+
+TEST(LargeAllocation, LargeBufferGrowsCopiesAndShrinksAcrossTheThreshold) {
+  // From operator new's storage to mapped storage and back, contents kept.
+  arap::LargeBuffer<double> v;
+  const std::size_t large = 3 * arap::kLargeAllocation / sizeof(double);
+  for (std::size_t k = 0; k < large; ++k) v.push_back(static_cast<double>(k));
+  arap::LargeBuffer<double> copy = v;
+  for (std::size_t k = 0; k < large; k += 997) ASSERT_EQ(copy[k], static_cast<double>(k));
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(copy.data()) % (2 * kMiB), 0u);
+  copy.resize(100);
+  copy.shrink_to_fit();
+  EXPECT_EQ(copy.back(), 99.0);
+  v = std::move(copy);
+  EXPECT_EQ(v.size(), 100u);
+  EXPECT_EQ(v[42], 42.0);
 }
 
 }  // namespace
