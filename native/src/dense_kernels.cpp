@@ -24,38 +24,54 @@ typedef double v4u __attribute__((vector_size(32), aligned(8), may_alias));
 
 constexpr long kRows = 8, kColumns = 4;  // a tile of C: 8 accumulators of 4
 
-// `pack`: A's rows in groups of 8, each group column after column (8
-// consecutive doubles per column), zero-padded. Rows 4q..4q+3 of A are half a
-// group, so the right-hand factor reads the same buffer.
-__attribute__((target("avx2,fma"))) void tiles_avx2(const double* pack, long row_groups, long column_groups, long w,
-                                                   double* C, long ldc) {
+// One 8 by 4 tile of C: C(r, c) = sum_t a(r, t) b(c, t), with a(r, t) =
+// a[r + t * a_step] (8 consecutive rows) and b(c, t) = b[c + t * b_step]
+// (4 consecutive rows).
+__attribute__((target("avx2,fma"), always_inline)) inline void tile_avx2(const double* a, long a_step, const double* b,
+                                                                       long b_step, long w, double* c, long ldc) {
+  v4 c0a = {0, 0, 0, 0}, c0b = c0a, c1a = c0a, c1b = c0a, c2a = c0a, c2b = c0a, c3a = c0a, c3b = c0a;
+  for (long t = 0; t < w; ++t) {
+    const v4 lo = *reinterpret_cast<const v4u*>(a + a_step * t);
+    const v4 hi = *reinterpret_cast<const v4u*>(a + a_step * t + 4);
+    const double* bt = b + b_step * t;
+    v4 s = {bt[0], bt[0], bt[0], bt[0]};
+    c0a += lo * s, c0b += hi * s;
+    s = v4{bt[1], bt[1], bt[1], bt[1]};
+    c1a += lo * s, c1b += hi * s;
+    s = v4{bt[2], bt[2], bt[2], bt[2]};
+    c2a += lo * s, c2b += hi * s;
+    s = v4{bt[3], bt[3], bt[3], bt[3]};
+    c3a += lo * s, c3b += hi * s;
+  }
+  *reinterpret_cast<v4u*>(c) = c0a, *reinterpret_cast<v4u*>(c + 4) = c0b;
+  c += ldc;
+  *reinterpret_cast<v4u*>(c) = c1a, *reinterpret_cast<v4u*>(c + 4) = c1b;
+  c += ldc;
+  *reinterpret_cast<v4u*>(c) = c2a, *reinterpret_cast<v4u*>(c + 4) = c2b;
+  c += ldc;
+  *reinterpret_cast<v4u*>(c) = c3a, *reinterpret_cast<v4u*>(c + 4) = c3b;
+}
+
+// The lower tiles of C = A A(0:k, :)^T. A's whole groups of 8 rows are read
+// where they are (column t at A + t * lda: the columns of a block are short
+// enough to stay in cache); only the last, partial group is copied, padded
+// with zeros, to `tail` (8 consecutive doubles per column), so that no row
+// past m is read.
+__attribute__((target("avx2,fma"))) void tiles_avx2(const double* A, long lda, long m, long k, long w,
+                                                   const double* tail, double* C, long ldc) {
+  const long full_groups = m / kRows, row_groups = product_rows(m) / kRows;
+  const long column_groups = product_columns(k) / kColumns;
   for (long cg = 0; cg < column_groups; ++cg) {
-    const double* b = pack + (cg / 2) * kRows * w + (cg % 2) * kColumns;
-    double* c_tile = C + cg * kColumns * ldc;
-    for (long rg = cg / 2; rg < row_groups; ++rg) {  // tiles wholly above the diagonal are skipped
-      const double* a = pack + rg * kRows * w;
-      v4 c0a = {0, 0, 0, 0}, c0b = c0a, c1a = c0a, c1b = c0a, c2a = c0a, c2b = c0a, c3a = c0a, c3b = c0a;
-      for (long t = 0; t < w; ++t) {
-        const v4 lo = *reinterpret_cast<const v4u*>(a + kRows * t);
-        const v4 hi = *reinterpret_cast<const v4u*>(a + kRows * t + 4);
-        const double* bt = b + kRows * t;
-        v4 s = {bt[0], bt[0], bt[0], bt[0]};
-        c0a += lo * s, c0b += hi * s;
-        s = v4{bt[1], bt[1], bt[1], bt[1]};
-        c1a += lo * s, c1b += hi * s;
-        s = v4{bt[2], bt[2], bt[2], bt[2]};
-        c2a += lo * s, c2b += hi * s;
-        s = v4{bt[3], bt[3], bt[3], bt[3]};
-        c3a += lo * s, c3b += hi * s;
-      }
-      double* c = c_tile + rg * kRows;
-      *reinterpret_cast<v4u*>(c) = c0a, *reinterpret_cast<v4u*>(c + 4) = c0b;
-      c += ldc;
-      *reinterpret_cast<v4u*>(c) = c1a, *reinterpret_cast<v4u*>(c + 4) = c1b;
-      c += ldc;
-      *reinterpret_cast<v4u*>(c) = c2a, *reinterpret_cast<v4u*>(c + 4) = c2b;
-      c += ldc;
-      *reinterpret_cast<v4u*>(c) = c3a, *reinterpret_cast<v4u*>(c + 4) = c3b;
+    const long c0 = cg * kColumns;
+    const bool b_in_tail = c0 + kColumns > full_groups * kRows;
+    const double* b = b_in_tail ? tail + (c0 - full_groups * kRows) : A + c0;
+    const long b_step = b_in_tail ? kRows : lda;
+    double* c_tile = C + c0 * ldc;
+    for (long rg = c0 / kRows; rg < row_groups; ++rg) {  // tiles wholly above the diagonal are skipped
+      if (rg < full_groups)
+        tile_avx2(A + rg * kRows, lda, b, b_step, w, c_tile + rg * kRows, ldc);
+      else
+        tile_avx2(tail, kRows, b, b_step, w, c_tile + rg * kRows, ldc);
     }
   }
 }
@@ -129,16 +145,13 @@ long product_rows(long m) { return (m + kRows - 1) / kRows * kRows; }
 long product_columns(long k) { return (k + kColumns - 1) / kColumns * kColumns; }
 
 void lower_product_avx2(const double* A, long lda, long m, long k, long w, double* C, std::vector<double>& pack) {
-  const long row_groups = product_rows(m) / kRows, column_groups = product_columns(k) / kColumns;
-  pack.resize(static_cast<std::size_t>(row_groups * kRows * w));
-  double* p = pack.data();
-  for (long rg = 0; rg < row_groups; ++rg)
+  // The last partial group of rows, zero-padded (a tile of B may also reach into it).
+  const long tail_begin = m / kRows * kRows;
+  pack.resize(static_cast<std::size_t>(kRows * w));
+  if (tail_begin < m)
     for (long t = 0; t < w; ++t)
-      for (long i = 0; i < kRows; ++i, ++p) {
-        const long r = rg * kRows + i;
-        *p = r < m ? A[r + t * lda] : 0.0;
-      }
-  tiles_avx2(pack.data(), row_groups, column_groups, w, C, row_groups * kRows);
+      for (long i = 0; i < kRows; ++i) pack[i + t * kRows] = tail_begin + i < m ? A[tail_begin + i + t * lda] : 0.0;
+  tiles_avx2(A, lda, m, k, w, pack.data(), C, product_rows(m));
 }
 
 void solve_transposed_avx2(double* B, long ldb, long rows, const double* L, long ldl, long w,

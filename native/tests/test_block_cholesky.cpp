@@ -206,32 +206,36 @@ TEST(BlockCholesky, PostorderStaysWithinParts) {
 }
 
 // The AVX2 kernel against a plain product, on sizes that hit every remainder.
+// The product reads A in place: rows between m and lda hold NaN, which must
+// not reach the result, and with lda == m the buffer ends at the last row
+// (the sanitizer build would see a read past it).
 TEST(DenseKernels, LowerProductAndTriangularSolveMatchPlainLoops) {
   if (!arap::have_avx2_fma()) GTEST_SKIP() << "no AVX2 + FMA on this processor: the portable path runs instead";
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(-1, 1);
   std::vector<double> pack;
-  for (long m : {1L, 5L, 8L, 13L, 37L})
+  for (long m : {1L, 5L, 8L, 12L, 13L, 16L, 37L})
     for (long k = 1; k <= m; k += 3)
-      for (long w : {1L, 4L, 7L}) {
-        const long lda = m + 2;
-        std::vector<double> A(lda * w);
-        for (double& v : A) v = u(rng);
-        std::vector<double> C(arap::product_rows(m) * arap::product_columns(k), NAN);
-        arap::lower_product_avx2(A.data(), lda, m, k, w, C.data(), pack);
-        for (long c = 0; c < k; ++c)
-          for (long r = c; r < m; ++r) {
-            double expected = 0;
-            for (long t = 0; t < w; ++t) expected += A[r + t * lda] * A[c + t * lda];
-            EXPECT_NEAR(C[r + c * arap::product_rows(m)], expected, 1e-13) << m << " " << k << " " << w;
-          }
-        // B L^-T with L lower triangular, well conditioned.
-        Eigen::MatrixXd L = Eigen::MatrixXd::Random(w, w).triangularView<Eigen::Lower>();
-        L.diagonal().array() = 2 + L.diagonal().array().abs();
-        Eigen::MatrixXd B = Eigen::MatrixXd::Random(m, w), X = B;
-        arap::solve_transposed_avx2(X.data(), m, m, L.data(), w, w, pack);
-        EXPECT_LT((X * L.transpose() - B).norm(), 1e-12 * B.norm()) << m << " " << w;
-      }
+      for (long w : {1L, 4L, 7L})
+        for (long lda : {m, m + 3}) {
+          std::vector<double> A(lda * w);
+          for (long t = 0; t < w; ++t)
+            for (long r = 0; r < lda; ++r) A[r + t * lda] = r < m ? u(rng) : NAN;
+          std::vector<double> C(arap::product_rows(m) * arap::product_columns(k), NAN);
+          arap::lower_product_avx2(A.data(), lda, m, k, w, C.data(), pack);
+          for (long c = 0; c < k; ++c)
+            for (long r = c; r < m; ++r) {
+              double expected = 0;
+              for (long t = 0; t < w; ++t) expected += A[r + t * lda] * A[c + t * lda];
+              EXPECT_NEAR(C[r + c * arap::product_rows(m)], expected, 1e-13) << m << " " << k << " " << w << " " << lda;
+            }
+          // B L^-T with L lower triangular, well conditioned.
+          Eigen::MatrixXd L = Eigen::MatrixXd::Random(w, w).triangularView<Eigen::Lower>();
+          L.diagonal().array() = 2 + L.diagonal().array().abs();
+          Eigen::MatrixXd B = Eigen::MatrixXd::Random(m, w), X = B;
+          arap::solve_transposed_avx2(X.data(), m, m, L.data(), w, w, pack);
+          EXPECT_LT((X * L.transpose() - B).norm(), 1e-12 * B.norm()) << m << " " << w;
+        }
 }
 
 // The small diagonal blocks' Cholesky against Eigen's LLT, inside a taller
