@@ -23,6 +23,7 @@ typedef double v4 __attribute__((vector_size(32)));
 typedef double v4u __attribute__((vector_size(32), aligned(8), may_alias));
 
 constexpr long kRows = 8, kColumns = 4;  // a tile of C: 8 accumulators of 4
+constexpr long kInPlaceColumns = 16;     // products of up to this many columns read A in place
 
 // One 8 by 4 tile of C: C(r, c) = sum_t a(r, t) b(c, t), with a(r, t) =
 // a[r + t * a_step] (8 consecutive rows) and b(c, t) = b[c + t * b_step]
@@ -52,24 +53,25 @@ __attribute__((target("avx2,fma"), always_inline)) inline void tile_avx2(const d
   *reinterpret_cast<v4u*>(c) = c3a, *reinterpret_cast<v4u*>(c + 4) = c3b;
 }
 
-// The lower tiles of C = A A(0:k, :)^T. A's whole groups of 8 rows are read
-// where they are (column t at A + t * lda: the columns of a block are short
-// enough to stay in cache); only the last, partial group is copied, padded
-// with zeros, to `tail` (8 consecutive doubles per column), so that no row
-// past m is read.
-__attribute__((target("avx2,fma"))) void tiles_avx2(const double* A, long lda, long m, long k, long w,
-                                                   const double* tail, double* C, long ldc) {
-  const long full_groups = m / kRows, row_groups = product_rows(m) / kRows;
-  const long column_groups = product_columns(k) / kColumns;
+// The lower tiles of C = A A(0:k, :)^T, with A's rows in groups of 8: group g
+// at rows + g * group_step, its column t a further t * column_step (8
+// consecutive doubles). Groups from full_groups on are read from `tail`
+// instead (column step 8): the last, partial group, copied and padded with
+// zeros, so that no row past m is read. The right-hand factor's rows are
+// half groups of the same storage.
+__attribute__((target("avx2,fma"))) void tiles_avx2(const double* rows, long group_step, long column_step,
+                                                   long full_groups, const double* tail, long m, long k, long w,
+                                                   double* C, long ldc) {
+  const long row_groups = product_rows(m) / kRows, column_groups = product_columns(k) / kColumns;
   for (long cg = 0; cg < column_groups; ++cg) {
-    const long c0 = cg * kColumns;
-    const bool b_in_tail = c0 + kColumns > full_groups * kRows;
-    const double* b = b_in_tail ? tail + (c0 - full_groups * kRows) : A + c0;
-    const long b_step = b_in_tail ? kRows : lda;
+    const long c0 = cg * kColumns, group = c0 / kRows;
+    const bool b_in_tail = group >= full_groups;
+    const double* b = b_in_tail ? tail + (c0 - full_groups * kRows) : rows + group * group_step + c0 % kRows;
+    const long b_step = b_in_tail ? kRows : column_step;
     double* c_tile = C + c0 * ldc;
-    for (long rg = c0 / kRows; rg < row_groups; ++rg) {  // tiles wholly above the diagonal are skipped
+    for (long rg = group; rg < row_groups; ++rg) {  // tiles wholly above the diagonal are skipped
       if (rg < full_groups)
-        tile_avx2(A + rg * kRows, lda, b, b_step, w, c_tile + rg * kRows, ldc);
+        tile_avx2(rows + rg * group_step, column_step, b, b_step, w, c_tile + rg * kRows, ldc);
       else
         tile_avx2(tail, kRows, b, b_step, w, c_tile + rg * kRows, ldc);
     }
@@ -145,13 +147,31 @@ long product_rows(long m) { return (m + kRows - 1) / kRows * kRows; }
 long product_columns(long k) { return (k + kColumns - 1) / kColumns * kColumns; }
 
 void lower_product_avx2(const double* A, long lda, long m, long k, long w, double* C, std::vector<double>& pack) {
-  // The last partial group of rows, zero-padded (a tile of B may also reach into it).
-  const long tail_begin = m / kRows * kRows;
-  pack.resize(static_cast<std::size_t>(kRows * w));
-  if (tail_begin < m)
+  const long ldc = product_rows(m);
+  if (k <= kInPlaceColumns) {
+    // Few tiles read each row of A: A is read where it is, and only its last
+    // partial group of rows (which a tile of the right-hand factor may also reach) is copied.
+    const long full_groups = m / kRows, tail_begin = full_groups * kRows;
+    pack.resize(static_cast<std::size_t>(kRows * w));
+    if (tail_begin < m)
+      for (long t = 0; t < w; ++t)
+        for (long i = 0; i < kRows; ++i) pack[i + t * kRows] = tail_begin + i < m ? A[tail_begin + i + t * lda] : 0.0;
+    tiles_avx2(A, kRows, lda, full_groups, pack.data(), m, k, w, C, ldc);
+    return;
+  }
+  // Many tiles read each row: A is packed once, each group of 8 rows column
+  // after column, so that the tiles read it sequentially. (Read in place with
+  // its long stride, the wide blocks of a 1M-vertex bind took 18% more time.)
+  const long row_groups = ldc / kRows;
+  pack.resize(static_cast<std::size_t>(row_groups * kRows * w));
+  double* p = pack.data();
+  for (long rg = 0; rg < row_groups; ++rg)
     for (long t = 0; t < w; ++t)
-      for (long i = 0; i < kRows; ++i) pack[i + t * kRows] = tail_begin + i < m ? A[tail_begin + i + t * lda] : 0.0;
-  tiles_avx2(A, lda, m, k, w, pack.data(), C, product_rows(m));
+      for (long i = 0; i < kRows; ++i, ++p) {
+        const long r = rg * kRows + i;
+        *p = r < m ? A[r + t * lda] : 0.0;
+      }
+  tiles_avx2(pack.data(), kRows * w, kRows, row_groups, nullptr, m, k, w, C, ldc);
 }
 
 void solve_transposed_avx2(double* B, long ldb, long rows, const double* L, long ldl, long w,
