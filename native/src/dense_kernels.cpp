@@ -53,15 +53,50 @@ __attribute__((target("avx2,fma"), always_inline)) inline void tile_avx2(const d
   *reinterpret_cast<v4u*>(c) = c3a, *reinterpret_cast<v4u*>(c + 4) = c3b;
 }
 
+// Eight doubles: one AVX-512 register inside the AVX-512 functions.
+typedef double v8 __attribute__((vector_size(64)));
+typedef double v8u __attribute__((vector_size(64), aligned(8), may_alias));
+
+// tile_avx2 for two groups of 8 rows (the second at a + group_step), one
+// AVX-512 register per group and column: twice the rows for each load of the
+// right-hand factor. Every entry is the same sequence of fused multiply-adds
+// as in tile_avx2: the same result bit for bit.
+__attribute__((target("avx512f,avx2,fma"))) void tile16_avx512(const double* a, long group_step, long a_step,
+                                                               const double* b, long b_step, long w, double* c,
+                                                               long ldc) {
+  v8 c0a = {}, c0b = {}, c1a = {}, c1b = {}, c2a = {}, c2b = {}, c3a = {}, c3b = {};
+  for (long t = 0; t < w; ++t) {
+    const v8 lo = *reinterpret_cast<const v8u*>(a + a_step * t);
+    const v8 hi = *reinterpret_cast<const v8u*>(a + group_step + a_step * t);
+    const double* bt = b + b_step * t;
+    v8 s = {bt[0], bt[0], bt[0], bt[0], bt[0], bt[0], bt[0], bt[0]};
+    c0a += lo * s, c0b += hi * s;
+    s = v8{bt[1], bt[1], bt[1], bt[1], bt[1], bt[1], bt[1], bt[1]};
+    c1a += lo * s, c1b += hi * s;
+    s = v8{bt[2], bt[2], bt[2], bt[2], bt[2], bt[2], bt[2], bt[2]};
+    c2a += lo * s, c2b += hi * s;
+    s = v8{bt[3], bt[3], bt[3], bt[3], bt[3], bt[3], bt[3], bt[3]};
+    c3a += lo * s, c3b += hi * s;
+  }
+  *reinterpret_cast<v8u*>(c) = c0a, *reinterpret_cast<v8u*>(c + 8) = c0b;
+  c += ldc;
+  *reinterpret_cast<v8u*>(c) = c1a, *reinterpret_cast<v8u*>(c + 8) = c1b;
+  c += ldc;
+  *reinterpret_cast<v8u*>(c) = c2a, *reinterpret_cast<v8u*>(c + 8) = c2b;
+  c += ldc;
+  *reinterpret_cast<v8u*>(c) = c3a, *reinterpret_cast<v8u*>(c + 8) = c3b;
+}
+
 // The lower tiles of C = A A(0:k, :)^T, with A's rows in groups of 8: group g
 // at rows + g * group_step, its column t a further t * column_step (8
 // consecutive doubles). Groups from full_groups on are read from `tail`
 // instead (column step 8): the last, partial group, copied and padded with
 // zeros, so that no row past m is read. The right-hand factor's rows are
-// half groups of the same storage.
+// half groups of the same storage. With avx512, pairs of whole groups go to
+// tile16_avx512 (a call per tile: it cannot be inlined into AVX2 code).
 __attribute__((target("avx2,fma"))) void tiles_avx2(const double* rows, long group_step, long column_step,
                                                    long full_groups, const double* tail, long m, long k, long w,
-                                                   double* C, long ldc) {
+                                                   double* C, long ldc, bool avx512) {
   const long row_groups = product_rows(m) / kRows, column_groups = product_columns(k) / kColumns;
   for (long cg = 0; cg < column_groups; ++cg) {
     const long c0 = cg * kColumns, group = c0 / kRows;
@@ -69,7 +104,11 @@ __attribute__((target("avx2,fma"))) void tiles_avx2(const double* rows, long gro
     const double* b = b_in_tail ? tail + (c0 - full_groups * kRows) : rows + group * group_step + c0 % kRows;
     const long b_step = b_in_tail ? kRows : column_step;
     double* c_tile = C + c0 * ldc;
-    for (long rg = group; rg < row_groups; ++rg) {  // tiles wholly above the diagonal are skipped
+    long rg = group;  // tiles wholly above the diagonal are skipped
+    if (avx512)
+      for (; rg + 2 <= full_groups; rg += 2)
+        tile16_avx512(rows + rg * group_step, group_step, column_step, b, b_step, w, c_tile + rg * kRows, ldc);
+    for (; rg < row_groups; ++rg) {
       if (rg < full_groups)
         tile_avx2(rows + rg * group_step, column_step, b, b_step, w, c_tile + rg * kRows, ldc);
       else
@@ -143,10 +182,16 @@ bool have_avx2_fma() {
   return yes;
 }
 
+bool have_avx512f() {
+  static const bool yes = have_avx2_fma() && __builtin_cpu_supports("avx512f");
+  return yes;
+}
+
 long product_rows(long m) { return (m + kRows - 1) / kRows * kRows; }
 long product_columns(long k) { return (k + kColumns - 1) / kColumns * kColumns; }
 
-void lower_product_avx2(const double* A, long lda, long m, long k, long w, double* C, std::vector<double>& pack) {
+void lower_product_avx2(const double* A, long lda, long m, long k, long w, double* C, std::vector<double>& pack,
+                        bool avx512) {
   const long ldc = product_rows(m);
   if (k <= kInPlaceColumns) {
     // Few tiles read each row of A: A is read where it is, and only its last
@@ -156,7 +201,7 @@ void lower_product_avx2(const double* A, long lda, long m, long k, long w, doubl
     if (tail_begin < m)
       for (long t = 0; t < w; ++t)
         for (long i = 0; i < kRows; ++i) pack[i + t * kRows] = tail_begin + i < m ? A[tail_begin + i + t * lda] : 0.0;
-    tiles_avx2(A, kRows, lda, full_groups, pack.data(), m, k, w, C, ldc);
+    tiles_avx2(A, kRows, lda, full_groups, pack.data(), m, k, w, C, ldc, avx512);
     return;
   }
   // Many tiles read each row: A is packed once, each group of 8 rows column
@@ -171,7 +216,7 @@ void lower_product_avx2(const double* A, long lda, long m, long k, long w, doubl
         const long r = rg * kRows + i;
         *p = r < m ? A[r + t * lda] : 0.0;
       }
-  tiles_avx2(pack.data(), kRows * w, kRows, row_groups, nullptr, m, k, w, C, ldc);
+  tiles_avx2(pack.data(), kRows * w, kRows, row_groups, nullptr, m, k, w, C, ldc, avx512);
 }
 
 void solve_transposed_avx2(double* B, long ldb, long rows, const double* L, long ldl, long w,
@@ -185,9 +230,10 @@ void solve_transposed_avx2(double* B, long ldb, long rows, const double* L, long
 #else  // no AVX2 kernels on this platform
 
 bool have_avx2_fma() { return false; }
+bool have_avx512f() { return false; }
 long product_rows(long m) { return m; }
 long product_columns(long k) { return k; }
-void lower_product_avx2(const double*, long, long, long, long, double*, std::vector<double>&) {}
+void lower_product_avx2(const double*, long, long, long, long, double*, std::vector<double>&, bool) {}
 void solve_transposed_avx2(double*, long, long, const double*, long, long, std::vector<double>&) {}
 
 #endif
@@ -212,7 +258,8 @@ bool small_cholesky_in_place(double* A, long lda, long w) {
   return true;
 }
 
-bool blocked_cholesky_avx2(double* A, long lda, long w, std::vector<double>& update, std::vector<double>& pack) {
+bool blocked_cholesky_avx2(double* A, long lda, long w, std::vector<double>& update, std::vector<double>& pack,
+                           bool avx512) {
   for (long k0 = 0; k0 < w; k0 += kSmallCholesky) {
     const long panel = std::min(kSmallCholesky, w - k0), below = w - k0;
     double* top = A + k0 + k0 * lda;  // the panel's diagonal entry
@@ -220,7 +267,7 @@ bool blocked_cholesky_avx2(double* A, long lda, long w, std::vector<double>& upd
       // A(k0:w, panel) -= L(k0:w, 0:k0) L(panel, 0:k0)^T, the lower part of the panel's square.
       const long ldc = product_rows(below);
       update.resize(static_cast<std::size_t>(ldc * product_columns(panel)));
-      lower_product_avx2(A + k0, lda, below, panel, k0, update.data(), pack);
+      lower_product_avx2(A + k0, lda, below, panel, k0, update.data(), pack, avx512);
       for (long c = 0; c < panel; ++c)
         for (long r = c; r < below; ++r) top[r + c * lda] -= update[r + c * ldc];
     }

@@ -12,15 +12,19 @@ namespace arap {
 
 // True when this processor runs the AVX2 + FMA kernel below.
 bool have_avx2_fma();
+// True when it also runs AVX-512F, which lower_product_avx2 can use.
+bool have_avx512f();
 
 // C(r, c) = sum_t A(r, t) A(c, t) for c < k <= m and r >= c (tiles across
 // the diagonal also get some r < c). A: m by w, column-major with leading
 // dimension lda. C: column-major, leading dimension product_rows(m), at least
 // product_columns(k) columns. `pack` is resized as needed. Only call when
-// have_avx2_fma().
+// have_avx2_fma(); avx512 (only when have_avx512f()) takes two groups of 8
+// rows per tile in AVX-512 registers, with the same result bit for bit.
 long product_rows(long m);
 long product_columns(long k);
-void lower_product_avx2(const double* A, long lda, long m, long k, long w, double* C, std::vector<double>& pack);
+void lower_product_avx2(const double* A, long lda, long m, long k, long w, double* C, std::vector<double>& pack,
+                        bool avx512 = false);
 
 // B = B L^-T in place: B rows by w (leading dimension ldb), L w by w lower
 // triangular (leading dimension ldl). `pack` is resized as needed. Only call
@@ -39,7 +43,8 @@ bool small_cholesky_in_place(double* A, long lda, long w);
 // A = L L^T in place for a larger block (any w), by panels of kSmallCholesky
 // columns: each panel takes the product of the columns left of it
 // (lower_product_avx2), is factored by small_cholesky_in_place, and solves
-// the rows below it (solve_transposed_avx2). `update` and `pack` are scratch.
+// the rows below it (solve_transposed_avx2). `update` and `pack` are scratch;
+// avx512 as for lower_product_avx2.
 // Only call when have_avx2_fma(). False as small_cholesky_in_place. Each
 // panel reads every column left of it again: for blocks wider than
 // kPanelCholeskyMax, whose columns no longer stay in cache, Eigen's blocked
@@ -47,6 +52,7 @@ bool small_cholesky_in_place(double* A, long lda, long w);
 // than 128 at 10k vertices, where the top separator is that wide; no change
 // measured at 250k and 1M.)
 constexpr long kPanelCholeskyMax = 256;
-bool blocked_cholesky_avx2(double* A, long lda, long w, std::vector<double>& update, std::vector<double>& pack);
+bool blocked_cholesky_avx2(double* A, long lda, long w, std::vector<double>& update, std::vector<double>& pack,
+                           bool avx512 = false);
 
 }  // namespace arap

@@ -201,6 +201,7 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
   LargeBuffer<double> value(static_cast<size_t>(value_start[m]));
   prefault_buffer(value);
   const bool avx2 = have_avx2_fma() && !std::getenv("ARAP_NO_AVX2");
+  const bool avx512 = avx2 && have_avx512f() && !std::getenv("ARAP_NO_AVX512");
   std::vector<int> waiting_next(m, -1);
   std::vector<long> cursor(m);
   // What one thread needs of its own: the waiting lists it pushes to and scratch.
@@ -243,7 +244,7 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
       if (avx2) {
         ldc = product_rows(tall);
         if (update.size() < static_cast<size_t>(ldc * product_columns(wide))) update.resize(ldc * product_columns(wide));
-        lower_product_avx2(Ld.data() + p1, dheight, tall, wide, Ld.cols(), update.data(), w.pack);
+        lower_product_avx2(Ld.data() + p1, dheight, tall, wide, Ld.cols(), update.data(), w.pack, avx512);
       } else {
         if (update.size() < static_cast<size_t>(tall * wide)) update.resize(tall * wide);
         Eigen::Map<Eigen::MatrixXd> C(update.data(), tall, wide);
@@ -274,7 +275,7 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
     if (width <= kSmallCholesky) {
       if (!small_cholesky_in_place(block, height, width)) return false;
     } else if (avx2 && width <= kPanelCholeskyMax) {
-      if (!blocked_cholesky_avx2(block, height, width, update, w.pack)) return false;
+      if (!blocked_cholesky_avx2(block, height, width, update, w.pack, avx512)) return false;
     } else {
       Eigen::Ref<Eigen::MatrixXd> diagonal_ref(diagonal);
       // Eigen::LLT's own in-place factorization, without the L1 norm LLT computes first (for rcond()).

@@ -10,8 +10,10 @@
 // its block, then factors its diagonal block and solves its off-diagonal rows,
 // so nearly all the arithmetic runs in dense kernels instead of one sparse
 // column at a time: dense_kernels.h's AVX2 + FMA ones where the processor has
-// them (unless ARAP_NO_AVX2 is set in the environment), Eigen's otherwise. The
-// result is deterministic on a given processor; the two paths round differently.
+// them (unless ARAP_NO_AVX2 is set in the environment), Eigen's otherwise; the
+// products take AVX-512 registers where the processor also has those (unless
+// ARAP_NO_AVX512 is set), with the same result as AVX2 bit for bit. The result
+// is deterministic on a given processor; the AVX2 and Eigen paths round differently.
 #pragma once
 
 #include <Eigen/SparseCore>
