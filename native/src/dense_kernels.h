@@ -42,16 +42,13 @@ bool small_cholesky_in_place(double* A, long lda, long w);
 
 // A = L L^T in place for a larger block (any w), by panels of kSmallCholesky
 // columns: each panel takes the product of the columns left of it
-// (lower_product_avx2), is factored by small_cholesky_in_place, and solves
-// the rows below it (solve_transposed_avx2). `update` and `pack` are scratch;
-// avx512 as for lower_product_avx2.
-// Only call when have_avx2_fma(). False as small_cholesky_in_place. Each
-// panel reads every column left of it again: for blocks wider than
-// kPanelCholeskyMax, whose columns no longer stay in cache, Eigen's blocked
-// LLT (which packs for the caches) is the faster one. (256: 2% less bind CPU
-// than 128 at 10k vertices, where the top separator is that wide; no change
-// measured at 250k and 1M.)
-constexpr long kPanelCholeskyMax = 256;
+// (lower_product_avx2, which reads them in place), is factored by
+// small_cholesky_in_place, and solves the rows below it
+// (solve_transposed_avx2). `update` and `pack` are scratch; avx512 as for
+// lower_product_avx2. Only call when have_avx2_fma(). False as
+// small_cholesky_in_place. (Against Eigen's blocked LLT, which this build
+// compiles for SSE2 only, it took 2-5% less bind time on the 250k and 1M
+// spheres with blocks of every width, and 2% less at 10k.)
 bool blocked_cholesky_avx2(double* A, long lda, long w, std::vector<double>& update, std::vector<double>& pack,
                            bool avx512 = false);
 

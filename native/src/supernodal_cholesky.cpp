@@ -274,7 +274,7 @@ bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const 
     Block diagonal(block, width, width, Eigen::OuterStride<>(height));
     if (width <= kSmallCholesky) {
       if (!small_cholesky_in_place(block, height, width)) return false;
-    } else if (avx2 && width <= kPanelCholeskyMax) {
+    } else if (avx2) {
       if (!blocked_cholesky_avx2(block, height, width, update, w.pack, avx512)) return false;
     } else {
       Eigen::Ref<Eigen::MatrixXd> diagonal_ref(diagonal);

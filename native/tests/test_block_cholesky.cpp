@@ -287,7 +287,7 @@ TEST(DenseKernels, BlockedCholeskyMatchesEigenAndRefusesIndefinite) {
   std::mt19937 rng(9);
   std::uniform_real_distribution<double> u(-1, 1);
   std::vector<double> update, pack;
-  for (long w : {1L, 15L, 16L, 17L, 31L, 32L, 33L, 50L, 97L, 200L, 256L, 257L}) {
+  for (long w : {1L, 15L, 16L, 17L, 31L, 32L, 33L, 50L, 97L, 200L, 257L, 600L}) {
     Eigen::MatrixXd M(w, w);
     for (long c = 0; c < w; ++c)
       for (long r = 0; r < w; ++r) M(r, c) = u(rng);
