@@ -6,22 +6,32 @@
 
 #if defined(__linux__)
 #include <sys/mman.h>
+#include <unistd.h>
 #endif
 
 namespace arap {
 
 namespace {
 
-constexpr std::size_t kPage = 4096, kHuge = std::size_t(2) << 20;
+constexpr std::size_t kHuge = std::size_t(2) << 20;
 
 std::size_t round_up(std::size_t x, std::size_t to) { return (x + to - 1) / to * to; }
+
+std::size_t page_size() {
+#if defined(__linux__)
+  static const std::size_t page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+  return page;
+#else
+  return 4096;
+#endif
+}
 
 // The mapping behind a request: whole pages, and the last partial 2 MiB made
 // whole when it is at least half used (a huge page then costs less than the
 // small pages it replaces, and at most 1 MiB is mapped beyond the buffer).
 // Depends on `bytes` alone, so that free_large unmaps what allocate_large mapped.
 std::size_t mapped_size(std::size_t bytes) {
-  const std::size_t pages = round_up(bytes, kPage);
+  const std::size_t pages = round_up(bytes, page_size());
   return pages % kHuge >= kHuge / 2 ? round_up(pages, kHuge) : pages;
 }
 
