@@ -13,9 +13,18 @@ namespace arap {
 
 namespace {
 
-constexpr std::size_t kHuge = std::size_t(2) << 20;
-
 std::size_t round_up(std::size_t x, std::size_t to) { return (x + to - 1) / to * to; }
+
+// The mapping behind a request: whole pages, and the last partial 2 MiB made
+// whole when it is at least half used (a huge page then costs less than the
+// small pages it replaces, and at most 1 MiB is mapped beyond the buffer).
+// Depends on `bytes` alone, so that free_large unmaps what allocate_large mapped.
+std::size_t mapped_size(std::size_t bytes) {
+  const std::size_t pages = round_up(bytes, page_size());
+  return pages % kHugePage >= kHugePage / 2 ? round_up(pages, kHugePage) : pages;
+}
+
+}  // namespace
 
 std::size_t page_size() {
 #if defined(__linux__)
@@ -26,17 +35,6 @@ std::size_t page_size() {
 #endif
 }
 
-// The mapping behind a request: whole pages, and the last partial 2 MiB made
-// whole when it is at least half used (a huge page then costs less than the
-// small pages it replaces, and at most 1 MiB is mapped beyond the buffer).
-// Depends on `bytes` alone, so that free_large unmaps what allocate_large mapped.
-std::size_t mapped_size(std::size_t bytes) {
-  const std::size_t pages = round_up(bytes, page_size());
-  return pages % kHuge >= kHuge / 2 ? round_up(pages, kHuge) : pages;
-}
-
-}  // namespace
-
 bool huge_pages_wanted() { return !std::getenv("ARAP_NO_HUGE_PAGES"); }
 
 #if defined(__linux__) && defined(MAP_ANONYMOUS)
@@ -44,16 +42,16 @@ bool huge_pages_wanted() { return !std::getenv("ARAP_NO_HUGE_PAGES"); }
 void* allocate_large(std::size_t bytes) {
   const std::size_t size = mapped_size(bytes);
   // Map 2 MiB more than needed and cut the unaligned ends off.
-  const std::size_t reserve = size + kHuge;
+  const std::size_t reserve = size + kHugePage;
   void* raw = mmap(nullptr, reserve, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
   if (raw == MAP_FAILED) throw std::bad_alloc();
   const auto base = reinterpret_cast<std::uintptr_t>(raw);
-  const std::uintptr_t aligned = round_up(base, kHuge);
+  const std::uintptr_t aligned = round_up(base, kHugePage);
   if (aligned > base) munmap(raw, aligned - base);
   if (base + reserve > aligned + size) munmap(reinterpret_cast<void*>(aligned + size), base + reserve - aligned - size);
   void* data = reinterpret_cast<void*>(aligned);
 #if defined(MADV_HUGEPAGE)
-  if (huge_pages_wanted() && size >= kHuge) madvise(data, size / kHuge * kHuge, MADV_HUGEPAGE);
+  if (huge_pages_wanted() && size >= kHugePage) madvise(data, size / kHugePage * kHugePage, MADV_HUGEPAGE);
 #endif
   return data;
 }
@@ -65,7 +63,7 @@ void free_large(void* data, std::size_t bytes) noexcept {
 #else
 
 void* allocate_large(std::size_t bytes) {
-  void* data = std::aligned_alloc(kHuge, round_up(bytes, kHuge));
+  void* data = std::aligned_alloc(kHugePage, round_up(bytes, kHugePage));
   if (!data) throw std::bad_alloc();
   return data;
 }
