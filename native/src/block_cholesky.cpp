@@ -6,6 +6,7 @@
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 
+#include "nested_dissection.h"
 #include "prefault.h"
 #include "sorted_column.h"
 #include "vector_halves.h"
@@ -136,9 +137,15 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel, 
   std::vector<int> part_order[3], local(n_, -1), second_local;
   const bool parallel = threads > 1 && !part[0].empty() && !part[1].empty();
   if (parallel) second_local.assign(n_, -1);
+  // Large halves by nested dissection, with AMD on its small parts (nested_dissection.h).
+  auto order_half = [&](const std::vector<int>& rows, std::vector<int>& scratch) {
+    auto by_amd = [&](const std::vector<int>& part_rows) { return amd_order(A, part_rows, scratch); };
+    if (static_cast<Eigen::Index>(rows.size()) < kNestedDissectionRows) return by_amd(rows);
+    return nested_dissection_order(A, rows, kDissectionLeafRows, by_amd);
+  };
   run_side_by_side(
-      parallel, [&] { part_order[0] = amd_order(A, part[0], local); },
-      [&] { part_order[1] = amd_order(A, part[1], parallel ? second_local : local); });
+      parallel, [&] { part_order[0] = order_half(part[0], local); },
+      [&] { part_order[1] = order_half(part[1], parallel ? second_local : local); });
   part_order[2] = amd_order(A, part[2], local);
   std::vector<int> order;
   order.reserve(n_);
