@@ -119,9 +119,40 @@ Eigen::SparseMatrix<double> permuted_lower(const Eigen::SparseMatrix<double>& A,
   return L;
 }
 
+// An order of A ready to factor: the permutation (perm[new] = old), with the
+// elimination tree postordered within each part (an equivalent order: the
+// same fill), the tree in that order, and the permuted lower triangle.
+struct OrderedMatrix {
+  Eigen::VectorXi perm;
+  std::vector<int> parent;
+  Eigen::SparseMatrix<double> lower;
+};
+
+OrderedMatrix ordered_matrix(const Eigen::SparseMatrix<double>& A, const std::vector<int>& order,
+                             const std::vector<int>& bounds) {
+  const int n = static_cast<int>(A.rows());
+  const std::vector<int> tree = elimination_tree(A, order);
+  const std::vector<int> post = postorder_within_parts(tree, bounds);
+  OrderedMatrix m;
+  m.perm.resize(n);
+  m.parent.resize(n);
+  std::vector<int> position(n);
+  for (int i = 0; i < n; ++i) m.perm[i] = order[post[i]], position[post[i]] = i;
+  for (int i = 0; i < n; ++i) m.parent[i] = tree[post[i]] < 0 ? -1 : position[tree[post[i]]];
+  m.lower = permuted_lower(A, m.perm);
+  return m;
+}
+
+// Multiply-adds of the factorization: the sum of the factor's column counts squared.
+double factor_operations(const OrderedMatrix& m) {
+  double operations = 0;
+  for (int count : column_counts(m.lower, m.parent)) operations += static_cast<double>(count) * count;
+  return operations;
+}
+
 }  // namespace
 
-bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel, int threads) {
+bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel, int threads, Ordering ordering) {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   n_ = A.rows();
@@ -133,36 +164,41 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel, 
     part[0].resize(n_);
     for (Eigen::Index k = 0; k < n_; ++k) part[0][k] = static_cast<int>(k);
   }
-  // The halves are ordered side by side on two threads (each with its own scratch); AMD is deterministic.
-  std::vector<int> part_order[3], local(n_, -1), second_local;
-  const bool parallel = threads > 1 && !part[0].empty() && !part[1].empty();
-  if (parallel) second_local.assign(n_, -1);
-  // Large halves by nested dissection, with AMD on its small parts (nested_dissection.h).
-  auto order_half = [&](const std::vector<int>& rows, std::vector<int>& scratch) {
-    auto by_amd = [&](const std::vector<int>& part_rows) { return amd_order(A, part_rows, scratch); };
-    if (static_cast<Eigen::Index>(rows.size()) < kNestedDissectionRows) return by_amd(rows);
-    return nested_dissection_order(A, rows, kDissectionLeafRows, by_amd);
-  };
-  run_side_by_side(
-      parallel, [&] { part_order[0] = order_half(part[0], local); },
-      [&] { part_order[1] = order_half(part[1], parallel ? second_local : local); });
-  part_order[2] = amd_order(A, part[2], local);
-  std::vector<int> order;
-  order.reserve(n_);
-  for (const auto& ordered_part : part_order) order.insert(order.end(), ordered_part.begin(), ordered_part.end());
   half_[0] = static_cast<Eigen::Index>(part[0].size());
   half_[1] = static_cast<Eigen::Index>(part[1].size());
   separator_ = half_[0] + half_[1];
   const std::vector<int> bounds = {0, static_cast<int>(half_[0]), static_cast<int>(separator_), static_cast<int>(n_)};
-  // The supernodes need the elimination tree postordered: an equivalent order
-  // (the same fill), kept within each half and the separator.
-  const std::vector<int> tree = elimination_tree(A, order);
-  const std::vector<int> post = postorder_within_parts(tree, bounds);
-  perm_.resize(n_);
-  std::vector<int> position(n_), parent(n_);  // the tree in the final order
-  for (Eigen::Index i = 0; i < n_; ++i) perm_[i] = order[post[i]], position[post[i]] = static_cast<int>(i);
-  for (Eigen::Index i = 0; i < n_; ++i) parent[i] = tree[post[i]] < 0 ? -1 : position[tree[post[i]]];
-  const Eigen::SparseMatrix<double> permuted = permuted_lower(A, perm_);
+  // The halves are ordered side by side on two threads (each with its own scratch); the order is deterministic.
+  std::vector<int> local(n_, -1), second_local;
+  const bool parallel = threads > 1 && !part[0].empty() && !part[1].empty();
+  if (parallel) second_local.assign(n_, -1);
+  // The three parts' orders, one after the other: by AMD, or by nested
+  // dissection with AMD only for what it cannot cut.
+  auto order_parts = [&](bool dissect) {
+    auto order_part = [&](const std::vector<int>& rows, std::vector<int>& scratch) {
+      auto by_amd = [&](const std::vector<int>& uncut) { return amd_order(A, uncut, scratch); };
+      return dissect ? nested_dissection_order(A, rows, kDissectionLeafRows, by_amd) : by_amd(rows);
+    };
+    std::vector<int> part_order[3];
+    run_side_by_side(
+        parallel, [&] { part_order[0] = order_part(part[0], local); },
+        [&] { part_order[1] = order_part(part[1], parallel ? second_local : local); });
+    part_order[2] = order_part(part[2], local);
+    std::vector<int> order;
+    order.reserve(n_);
+    for (const auto& ordered_part : part_order) order.insert(order.end(), ordered_part.begin(), ordered_part.end());
+    return order;
+  };
+  OrderedMatrix chosen = ordered_matrix(A, order_parts(false), bounds);
+  // Nested dissection's order is kept only if its factorization needs fewer
+  // multiply-adds than AMD's (which is fewer depends on the mesh: nested_dissection.h).
+  if (ordering == Ordering::Fewest || (ordering == Ordering::Auto && n_ >= kDissectionRows)) {
+    OrderedMatrix dissected = ordered_matrix(A, order_parts(true), bounds);
+    if (factor_operations(dissected) < factor_operations(chosen)) chosen = std::move(dissected);
+  }
+  perm_ = std::move(chosen.perm);
+  const std::vector<int>& parent = chosen.parent;
+  const Eigen::SparseMatrix<double>& permuted = chosen.lower;
   const auto ordered = Clock::now();
   auto factored = ordered;
   bool ok;

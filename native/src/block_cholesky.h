@@ -3,8 +3,8 @@
 // (x, y, z of every vertex), instead of once per column as Eigen's solve does.
 //
 // Large matrices are split in two by a separator (one breadth-first level of
-// the matrix graph): each half is ordered on its own (by AMD, or by nested
-// dissection when large: nested_dissection.h) and the separator comes last, so the factor has no entry coupling the halves and the two
+// the matrix graph): each half is ordered on its own (by AMD, or for large
+// matrices by nested dissection: see Ordering) and the separator comes last, so the factor has no entry coupling the halves and the two
 // halves of each triangular solve can run on two threads. The split does not
 // depend on the thread count: the result is the same bit for bit.
 //
@@ -22,10 +22,15 @@ namespace arap {
 class BlockCholesky {
  public:
   enum class Kernel { Supernodal, Simplicial };
+  // Amd; Fewest: AMD's order or nested dissection's (nested_dissection.h),
+  // whichever needs fewer multiply-adds to factor; Auto: Fewest from
+  // kDissectionRows rows on, Amd below.
+  enum class Ordering { Amd, Fewest, Auto };
   // A: both triangles stored. Orders (see above), factors P A P^T = L L^T.
   // threads > 1 orders and (supernodal kernel) factors the two halves side by
   // side: the same factor bit for bit. Returns false if A is not SPD.
-  bool factor(const Eigen::SparseMatrix<double>& A, Kernel kernel = Kernel::Supernodal, int threads = 1);
+  bool factor(const Eigen::SparseMatrix<double>& A, Kernel kernel = Kernel::Supernodal, int threads = 1,
+              Ordering ordering = Ordering::Amd);
   double ordering_ms() const { return ordering_ms_; }
   double factor_ms() const { return factor_ms_; }
   // x: rows() by 3 row-major, overwritten with A^-1 x. `work` is resized once.

@@ -7,19 +7,19 @@ namespace arap {
 namespace {
 
 using Sparse = Eigen::SparseMatrix<double>;
-using OrderLeaf = std::function<std::vector<int>(const std::vector<int>&)>;
+using OrderUncut = std::function<std::vector<int>(const std::vector<int>&)>;
 
 class Dissection {
  public:
-  Dissection(const Sparse& A, int leaf_rows, const OrderLeaf& order_leaf)
-      : A_(A), leaf_rows_(leaf_rows), order_leaf_(order_leaf), row_(A.rows()) {}
+  Dissection(const Sparse& A, int leaf_rows, const OrderUncut& order_uncut)
+      : A_(A), leaf_rows_(leaf_rows), order_uncut_(order_uncut), row_(A.rows()) {}
 
   // Appends the order of `rows` to `out`. The rows of the part, and no
   // others, carry `tag`. `start`: a row of the part at one end of it, or -1
   // to find one.
   void order(const std::vector<int>& rows, int tag, int start, std::vector<int>& out) {
     const int m = static_cast<int>(rows.size());
-    if (m <= leaf_rows_) return append(order_leaf_(rows), out);
+    if (m <= leaf_rows_) return append(rows, out);
     std::vector<int> queue, level_start;
     queue.reserve(m);
     int reached = breadth_first(start >= 0 ? start : rows[0], tag, queue, level_start);
@@ -31,6 +31,7 @@ class Dissection {
     }
     // Levels are runs of the queue: level l is queue[level_start[l], level_start[l + 1]).
     const int cut = separating_level(level_start);
+    if (cut < 0) return append(order_uncut_(rows), out);
     const auto level_begin = queue.begin() + level_start[cut], level_end = queue.begin() + level_start[cut + 1];
     std::vector<int> side[2], separator;
     side[0].assign(queue.begin(), level_begin);
@@ -43,14 +44,13 @@ class Dissection {
         touches_far_side = row_[it.row()].tag == reached && row_[it.row()].level > cut;
       (touches_far_side ? separator : side[0]).push_back(*v);
     }
-    if (side[0].empty() || side[1].empty()) return append(order_leaf_(rows), out);
     const int side_tag[2] = {retag(side[0]), retag(side[1])};
     // Each side is cut next across this cut: from one end of the separator.
     const int end = far_end(separator);
     const int side_start[2] = {neighbour_tagged(end, side_tag[0]), neighbour_tagged(end, side_tag[1])};
     order(side[0], side_tag[0], side_start[0], out);
     order(side[1], side_tag[1], side_start[1], out);
-    append(order_leaf_(separator), out);
+    append(separator, out);
   }
 
   int retag(const std::vector<int>& rows) {
@@ -96,19 +96,18 @@ class Dissection {
 
   // The smallest level that leaves at least a quarter of the rows on each
   // side (on the meshes measured, a smaller separator pays for the imbalance
-  // down to about that: fewer operations than with 40% or 49%); failing
-  // that, the level holding the middle row.
+  // down to about that: fewer operations than with 40% or 49%), or -1 if
+  // none does.
   int separating_level(const std::vector<int>& level_start) const {
     const int levels = static_cast<int>(level_start.size()) - 1;
     const int m = level_start[levels];
-    int best = -1, middle = 0;
+    int best = -1;
     for (int l = 0; l < levels; ++l) {
       const int below = level_start[l], count = level_start[l + 1] - below, above = m - below - count;
-      if (below <= m / 2) middle = l;
       if (4 * std::min(below, above) < m) continue;
       if (best < 0 || count < level_start[best + 1] - level_start[best]) best = l;
     }
-    return best >= 0 ? best : middle;
+    return best;
   }
 
   // The row of the separator farthest (within it) from its first row.
@@ -145,7 +144,7 @@ class Dissection {
 
   const Sparse& A_;
   const int leaf_rows_;
-  const OrderLeaf& order_leaf_;
+  const OrderUncut& order_uncut_;
   std::vector<Row> row_;
   int stamp_ = 0;
 };
@@ -153,10 +152,10 @@ class Dissection {
 }  // namespace
 
 std::vector<int> nested_dissection_order(const Sparse& A, const std::vector<int>& rows, int leaf_rows,
-                                         const OrderLeaf& order_leaf) {
+                                         const OrderUncut& order_uncut) {
   std::vector<int> out;
   out.reserve(rows.size());
-  Dissection dissection(A, leaf_rows, order_leaf);
+  Dissection dissection(A, leaf_rows, order_uncut);
   dissection.order(rows, dissection.retag(rows), -1, out);
   return out;
 }

@@ -408,7 +408,8 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)
     for (int k = 0; k < 3; ++k) next->triangles(f, k) = next->mesh.rank[triangles(f, k)];
   next->constrained_input = constrained;
-  if (!next->laplacian.factor(next->mesh.laplacian_ff, BlockCholesky::Kernel::Supernodal, options.threads))
+  if (!next->laplacian.factor(next->mesh.laplacian_ff, BlockCholesky::Kernel::Supernodal, options.threads,
+                              BlockCholesky::Ordering::Auto))
     throw Error(ErrorCode::Factorization,
                 "the Laplacian could not be factored (not positive definite); with --weights cotan on a badly "
                 "triangulated mesh, try cotan-clamped");

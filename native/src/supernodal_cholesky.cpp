@@ -26,50 +26,6 @@ std::vector<int> part_ends(const std::vector<int>& bounds, int n) {
   return end;
 }
 
-// Number of entries in each column of L, the diagonal included, without
-// forming L: Gilbert, Ng and Peyton's method ("An efficient algorithm to
-// compute row and column counts for sparse Cholesky factorization", 1994).
-// Row i of L is the subtree of the elimination tree spanned by the columns j
-// with A(i, j) != 0, j < i; a column's count is the number of row subtrees
-// holding it, summed over the tree from differences at each subtree's leaves
-// and least common ancestors. Needs a postordered tree.
-std::vector<int> column_counts(const Sparse& A, const std::vector<int>& parent) {
-  const int n = static_cast<int>(A.rows());
-  std::vector<int> size(n, 1), first(n), delta(n), max_first(n, -1), previous_leaf(n, -1), ancestor(n);
-  for (int j = 0; j < n; ++j)
-    if (parent[j] >= 0) size[parent[j]] += size[j];
-  for (int j = 0; j < n; ++j) {
-    first[j] = j - size[j] + 1;  // the first descendant, in postorder
-    delta[j] = size[j] == 1;     // a leaf of the tree
-    ancestor[j] = j;
-  }
-  for (int j = 0; j < n; ++j) {
-    if (parent[j] >= 0) --delta[parent[j]];
-    for (Sparse::InnerIterator it(A, j); it; ++it) {
-      const int i = static_cast<int>(it.row());
-      // j is a leaf of row i's subtree unless an earlier leaf descends from j.
-      if (i <= j || first[j] <= max_first[i]) continue;
-      max_first[i] = first[j];
-      const int previous = previous_leaf[i];
-      previous_leaf[i] = j;
-      ++delta[j];
-      if (previous < 0) continue;
-      int lca = previous;  // least common ancestor of the two leaves
-      while (lca != ancestor[lca]) lca = ancestor[lca];
-      for (int k = previous; k != lca;) {
-        const int next = ancestor[k];
-        ancestor[k] = lca;
-        k = next;
-      }
-      --delta[lca];
-    }
-    if (parent[j] >= 0) ancestor[j] = parent[j];
-  }
-  for (int j = 0; j < n; ++j)
-    if (parent[j] >= 0) delta[parent[j]] += delta[j];
-  return delta;
-}
-
 // First column of each supernode (and n last). Fundamental supernodes first:
 // column j + 1 joins column j's when it is j's parent and L's column j is
 // column j + 1 plus the diagonal. Then a supernode is merged into its parent,
@@ -108,6 +64,43 @@ std::vector<int> supernodes(const std::vector<int>& parent, const std::vector<in
 }
 
 }  // namespace
+
+std::vector<int> column_counts(const Sparse& A, const std::vector<int>& parent) {
+  const int n = static_cast<int>(A.rows());
+  std::vector<int> size(n, 1), first(n), delta(n), max_first(n, -1), previous_leaf(n, -1), ancestor(n);
+  for (int j = 0; j < n; ++j)
+    if (parent[j] >= 0) size[parent[j]] += size[j];
+  for (int j = 0; j < n; ++j) {
+    first[j] = j - size[j] + 1;  // the first descendant, in postorder
+    delta[j] = size[j] == 1;     // a leaf of the tree
+    ancestor[j] = j;
+  }
+  for (int j = 0; j < n; ++j) {
+    if (parent[j] >= 0) --delta[parent[j]];
+    for (Sparse::InnerIterator it(A, j); it; ++it) {
+      const int i = static_cast<int>(it.row());
+      // j is a leaf of row i's subtree unless an earlier leaf descends from j.
+      if (i <= j || first[j] <= max_first[i]) continue;
+      max_first[i] = first[j];
+      const int previous = previous_leaf[i];
+      previous_leaf[i] = j;
+      ++delta[j];
+      if (previous < 0) continue;
+      int lca = previous;  // least common ancestor of the two leaves
+      while (lca != ancestor[lca]) lca = ancestor[lca];
+      for (int k = previous; k != lca;) {
+        const int next = ancestor[k];
+        ancestor[k] = lca;
+        k = next;
+      }
+      --delta[lca];
+    }
+    if (parent[j] >= 0) ancestor[j] = parent[j];
+  }
+  for (int j = 0; j < n; ++j)
+    if (parent[j] >= 0) delta[parent[j]] += delta[j];
+  return delta;
+}
 
 std::vector<int> elimination_tree(const Sparse& A, const std::vector<int>& order) {
   const int n = static_cast<int>(A.rows());

@@ -37,6 +37,16 @@ struct SparseFactor {
 // or the identity if empty): parent[j] > j, or -1 for a root.
 std::vector<int> elimination_tree(const Eigen::SparseMatrix<double>& A, const std::vector<int>& order = {});
 
+// Number of entries in each column of L, the diagonal included, without
+// forming L: Gilbert, Ng and Peyton's method ("An efficient algorithm to
+// compute row and column counts for sparse Cholesky factorization", 1994).
+// Row i of L is the subtree of the elimination tree spanned by the columns j
+// with A(i, j) != 0, j < i; a column's count is the number of row subtrees
+// holding it, summed over the tree from differences at each subtree's leaves
+// and least common ancestors. Needs a postordered tree. A: the lower triangle of the
+// ordered matrix (only entries below the diagonal are read).
+std::vector<int> column_counts(const Eigen::SparseMatrix<double>& A, const std::vector<int>& parent);
+
 // An order of the columns in which every part [bounds[k], bounds[k+1]) stays
 // where it is and, within it, the elimination tree is postordered (children
 // before parents, each subtree contiguous); order[new] = old. Needs parents in

@@ -1,7 +1,7 @@
-// The nested dissection order of large matrices (nested_dissection.h): every
-// row ordered once, components one after the other, fewer operations than
-// AMD alone on a large mesh, and BlockCholesky's solve when its halves are
-// large enough to be ordered this way.
+// The nested dissection order of the bind's matrices (nested_dissection.h):
+// every row ordered once, components one after the other, parts it cannot cut
+// handed to the general order, fewer operations than AMD alone on a large
+// mesh, and BlockCholesky's solve with the halves so ordered.
 #include <gtest/gtest.h>
 
 #include <Eigen/OrderingMethods>
@@ -65,7 +65,7 @@ double factorization_operations(const Sparse& A, const std::vector<int>& order) 
   return operations;
 }
 
-TEST(NestedDissection, OrdersEveryRowOnceAndCutsLargeParts) {
+TEST(NestedDissection, OrdersEveryRowOnce) {
   const Sparse A = mesh_matrix(arap::procedural::make_sphere(20000), 1e-3, 21);
   // The whole matrix, then a perforated subset (every fourth row left out).
   std::vector<int> subset;
@@ -73,23 +73,44 @@ TEST(NestedDissection, OrdersEveryRowOnceAndCutsLargeParts) {
     if (i % 4 != 0) subset.push_back(i);
   for (const std::vector<int>& rows : {all_rows(A), subset}) {
     const std::set<int> wanted(rows.begin(), rows.end());
-    std::set<int> given_to_leaves;
-    int leaf_calls = 0;
+    size_t largest_uncut = 0;
     const std::vector<int> order =
-        arap::nested_dissection_order(A, rows, 500, [&](const std::vector<int>& part) {
-          ++leaf_calls;
-          for (int v : part) {
-            EXPECT_TRUE(wanted.count(v)) << v << " is not a row to order";
-            EXPECT_TRUE(given_to_leaves.insert(v).second) << v << " in two parts";
-          }
+        arap::nested_dissection_order(A, rows, arap::kDissectionLeafRows, [&](const std::vector<int>& part) {
+          for (int v : part) EXPECT_TRUE(wanted.count(v)) << v << " is not a row to order";
+          largest_uncut = std::max(largest_uncut, part.size());
           return amd_of(A, part);
         });
     ASSERT_EQ(order.size(), rows.size());
     EXPECT_EQ(std::set<int>(order.begin(), order.end()), wanted);
-    EXPECT_EQ(given_to_leaves, wanted);
-    // Really dissected: a part of at most 500 rows per leaf, and a separator per cut.
-    EXPECT_GE(leaf_calls, 2 * static_cast<int>(rows.size()) / 500);
+    // A mesh is cut down to small parts: what no level cuts into quarters is small.
+    EXPECT_LT(largest_uncut, 100u);
   }
+}
+
+// A hub joined to every other row (and those in a ring) has no level that
+// leaves a quarter on each side: the general order takes it, which puts the
+// hub last. Kept in the order met, the hub first would fill the factor in.
+TEST(NestedDissection, HandsWhatItCannotCutToTheGeneralOrder) {
+  const int n = 2000;
+  std::vector<Eigen::Triplet<double>> t;
+  for (int i = 1; i < n; ++i) {
+    const int next = i + 1 < n ? i + 1 : 1;
+    for (const auto& [a, b] : {std::pair<int, int>(0, i), std::pair<int, int>(i, next)})
+      t.emplace_back(a, b, -1.0), t.emplace_back(b, a, -1.0), t.emplace_back(a, a, 1.0), t.emplace_back(b, b, 1.0);
+  }
+  for (int i = 0; i < n; ++i) t.emplace_back(i, i, 1e-3);
+  Sparse A(n, n);
+  A.setFromTriplets(t.begin(), t.end());
+  int calls = 0;
+  const std::vector<int> order = arap::nested_dissection_order(A, all_rows(A), arap::kDissectionLeafRows,
+                                                               [&](const std::vector<int>& part) {
+                                                                 ++calls;
+                                                                 return amd_of(A, part);
+                                                               });
+  EXPECT_EQ(calls, 1);
+  ASSERT_EQ(order.size(), static_cast<size_t>(n));
+  EXPECT_EQ(std::set<int>(order.begin(), order.end()).size(), static_cast<size_t>(n));
+  EXPECT_LT(factorization_operations(A, order), 20.0 * n);  // a full factor would take n^3 / 3
 }
 
 TEST(NestedDissection, OrdersComponentsOneAfterTheOther) {
@@ -106,8 +127,8 @@ TEST(NestedDissection, OrdersComponentsOneAfterTheOther) {
   // Interleaved rows: the order must still keep each sphere's rows together.
   std::vector<int> rows;
   for (int i = 0; i < n; ++i) rows.push_back(i), rows.push_back(i + static_cast<int>(n));
-  const std::vector<int> order =
-      arap::nested_dissection_order(A, rows, 300, [&](const std::vector<int>& part) { return amd_of(A, part); });
+  const std::vector<int> order = arap::nested_dissection_order(
+      A, rows, arap::kDissectionLeafRows, [&](const std::vector<int>& part) { return amd_of(A, part); });
   ASSERT_EQ(order.size(), rows.size());
   int switches = 0;
   for (size_t k = 1; k < order.size(); ++k) switches += (order[k] < n) != (order[k - 1] < n);
@@ -118,32 +139,57 @@ TEST(NestedDissection, OrdersComponentsOneAfterTheOther) {
 TEST(NestedDissection, NeedsFewerOperationsThanAmdOnALargeMesh) {
   const Sparse A = mesh_matrix(arap::procedural::make_ellipsoid(40000, Eigen::Vector3d(1, 1, 2)), 1e-3, 23);
   const std::vector<int> rows = all_rows(A);
-  const std::vector<int> dissected =
-      arap::nested_dissection_order(A, rows, 1000, [&](const std::vector<int>& part) { return amd_of(A, part); });
+  const std::vector<int> dissected = arap::nested_dissection_order(
+      A, rows, arap::kDissectionLeafRows, [&](const std::vector<int>& part) { return amd_of(A, part); });
   const double by_dissection = factorization_operations(A, dissected);
   const double by_amd = factorization_operations(A, amd_of(A, rows));
   EXPECT_LT(by_dissection, 0.9 * by_amd) << by_dissection << " against AMD's " << by_amd;
 }
 
-// From 2 * kNestedDissectionRows rows both halves of BlockCholesky are
-// ordered by nested dissection: the solve, and the same factor on two threads.
+// Ordering::Fewest on a split matrix where nested dissection needs fewer
+// operations than AMD: its order is kept for both halves; the solve, and the
+// same factor on two threads.
 TEST(NestedDissection, BlockCholeskyWithDissectedHalvesSolves) {
-  const Sparse A = mesh_matrix(arap::procedural::make_sphere(2 * arap::kNestedDissectionRows + 12000), 1e-4, 24);
-  arap::BlockCholesky one, two;
-  ASSERT_TRUE(one.factor(A, arap::BlockCholesky::Kernel::Supernodal, 1));
-  ASSERT_TRUE(two.factor(A, arap::BlockCholesky::Kernel::Supernodal, 2));
-  ASSERT_GE(one.first_half(), arap::kNestedDissectionRows);
-  ASSERT_GE(one.second_half(), arap::kNestedDissectionRows);
+  using arap::BlockCholesky;
+  const Sparse A = mesh_matrix(arap::procedural::make_ellipsoid(30000, Eigen::Vector3d(1, 1, 2)), 1e-4, 24);
+  ASSERT_GE(A.rows(), 20000);
+  BlockCholesky one, two, amd;
+  ASSERT_TRUE(one.factor(A, BlockCholesky::Kernel::Supernodal, 1, BlockCholesky::Ordering::Fewest));
+  ASSERT_TRUE(two.factor(A, BlockCholesky::Kernel::Supernodal, 2, BlockCholesky::Ordering::Fewest));
+  ASSERT_TRUE(amd.factor(A, BlockCholesky::Kernel::Supernodal, 1, BlockCholesky::Ordering::Amd));
+  ASSERT_GT(one.first_half(), 0);
+  ASSERT_GT(one.second_half(), 0);
   EXPECT_EQ(two.nonzeros(), one.nonzeros());
+  EXPECT_LT(one.nonzeros(), amd.nonzeros());  // dissected: fewer entries than AMD's
   const Eigen::MatrixXd b = random_rhs(A.rows(), 25);
+  Eigen::SimplicialLDLT<Sparse> reference(A);
+  ASSERT_EQ(reference.info(), Eigen::Success);
+  const Eigen::MatrixXd expected = reference.solve(b);
   for (int threads : {1, 2}) {
     Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> x1 = b, x2 = b;
     std::vector<double> work;
     one.solve_in_place(x1.data(), work, threads);
     two.solve_in_place(x2.data(), work, threads);
-    EXPECT_LT((A * Eigen::MatrixXd(x1) - b).norm(), 1e-8 * b.norm());
+    EXPECT_LT((Eigen::MatrixXd(x1) - expected).norm(), 1e-10 * expected.norm());
     EXPECT_EQ(std::memcmp(x1.data(), x2.data(), sizeof(double) * x1.size()), 0);
   }
+}
+
+// Where AMD's order needs fewer operations (this triangulated box, its
+// diagonals all one way), Ordering::Fewest keeps it: the same factor as AMD's.
+TEST(NestedDissection, BlockCholeskyKeepsAmdWhereItNeedsFewerOperations) {
+  using arap::BlockCholesky;
+  const Sparse A = mesh_matrix(arap::procedural::make_bar_with_vertices(30000, 6.0), 1e-4, 26);
+  BlockCholesky fewest, amd;
+  ASSERT_TRUE(fewest.factor(A, BlockCholesky::Kernel::Supernodal, 1, BlockCholesky::Ordering::Fewest));
+  ASSERT_TRUE(amd.factor(A, BlockCholesky::Kernel::Supernodal, 1, BlockCholesky::Ordering::Amd));
+  EXPECT_EQ(fewest.nonzeros(), amd.nonzeros());
+  const Eigen::MatrixXd b = random_rhs(A.rows(), 27);
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> x1 = b, x2 = b;
+  std::vector<double> work;
+  fewest.solve_in_place(x1.data(), work, 1);
+  amd.solve_in_place(x2.data(), work, 1);
+  EXPECT_EQ(std::memcmp(x1.data(), x2.data(), sizeof(double) * x1.size()), 0);
 }
 
 }  // namespace
