@@ -41,7 +41,7 @@ constexpr long kDissectionRows = 200000;
 
 // Parts of this many rows or fewer are not cut further: kept in the order the
 // search met them. With 16 or 32 rows the ordering is a little faster, but
-// the factor has 1-5% more entries than with 8 (250k-1M vertices), which
+// the factor has 1-8% more entries than with 8 (250k-1M vertices), which
 // every later triangular solve pays for.
 constexpr int kDissectionLeafRows = 8;
 
