@@ -121,11 +121,13 @@ Eigen::SparseMatrix<double> permuted_lower(const Eigen::SparseMatrix<double>& A,
 
 // An order of A ready to factor: the permutation (perm[new] = old), with the
 // elimination tree postordered within each part (an equivalent order: the
-// same fill), the tree in that order, and the permuted lower triangle.
+// same fill), the tree in that order, the permuted lower triangle and the
+// factor's column counts.
 struct OrderedMatrix {
   Eigen::VectorXi perm;
   std::vector<int> parent;
   Eigen::SparseMatrix<double> lower;
+  std::vector<int> count;
 };
 
 OrderedMatrix ordered_matrix(const Eigen::SparseMatrix<double>& A, const std::vector<int>& order,
@@ -140,13 +142,14 @@ OrderedMatrix ordered_matrix(const Eigen::SparseMatrix<double>& A, const std::ve
   for (int i = 0; i < n; ++i) m.perm[i] = order[post[i]], position[post[i]] = i;
   for (int i = 0; i < n; ++i) m.parent[i] = tree[post[i]] < 0 ? -1 : position[tree[post[i]]];
   m.lower = permuted_lower(A, m.perm);
+  m.count = column_counts(m.lower, m.parent);
   return m;
 }
 
 // Multiply-adds of the factorization: the sum of the factor's column counts squared.
 double factor_operations(const OrderedMatrix& m) {
   double operations = 0;
-  for (int count : column_counts(m.lower, m.parent)) operations += static_cast<double>(count) * count;
+  for (int count : m.count) operations += static_cast<double>(count) * count;
   return operations;
 }
 
@@ -197,13 +200,12 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel, 
     if (factor_operations(dissected) < factor_operations(chosen)) chosen = std::move(dissected);
   }
   perm_ = std::move(chosen.perm);
-  const std::vector<int>& parent = chosen.parent;
   const Eigen::SparseMatrix<double>& permuted = chosen.lower;
   const auto ordered = Clock::now();
   auto factored = ordered;
   bool ok;
   if (kernel == Kernel::Supernodal) {
-    ok = supernodal_cholesky(permuted, parent, bounds, L_, threads);
+    ok = supernodal_cholesky(permuted, chosen.parent, chosen.count, bounds, L_, threads);
     factored = Clock::now();
   } else {
     Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> llt(permuted);

@@ -3,8 +3,9 @@
 // (x, y, z of every vertex), instead of once per column as Eigen's solve does.
 //
 // Large matrices are split in two by a separator (one breadth-first level of
-// the matrix graph): each half is ordered on its own (by AMD, or for large
-// matrices by nested dissection: see Ordering) and the separator comes last, so the factor has no entry coupling the halves and the two
+// the matrix graph): each half is ordered on its own (by AMD, or for the
+// largest matrices by nested dissection: see Ordering) and the separator
+// comes last, so the factor has no entry coupling the halves and the two
 // halves of each triangular solve can run on two threads. The split does not
 // depend on the thread count: the result is the same bit for bit.
 //

@@ -148,11 +148,11 @@ std::vector<int> postorder_within_parts(const std::vector<int>& parent, const st
   return order;
 }
 
-bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const std::vector<int>& bounds,
+bool supernodal_cholesky(const Sparse& A, const std::vector<int>& parent, const std::vector<int>& count,
+                         const std::vector<int>& bounds,
                          SparseFactor& L, int threads) {
   L.clear();
   const int n = static_cast<int>(A.rows());
-  const std::vector<int> count = column_counts(A, parent);
   std::vector<int> first = supernodes(parent, count, part_ends(bounds, n));
   const int m = static_cast<int>(first.size()) - 1;
   std::vector<int> super_of(n);

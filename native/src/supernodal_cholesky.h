@@ -55,12 +55,12 @@ std::vector<int> column_counts(const Eigen::SparseMatrix<double>& A, const std::
 std::vector<int> postorder_within_parts(const std::vector<int>& parent, const std::vector<int>& bounds);
 
 // Factors A (only its lower triangle is read; `parent`: its elimination tree, which
-// must be postordered, see above). Supernodes never span two parts
+// must be postordered, see above; `count`: column_counts(A, parent)). Supernodes never span two parts
 // [bounds[k], bounds[k+1]). With three parts (two halves that no entry
 // couples, then their separator) and threads > 1 the halves are factored side
 // by side; the result is the same bit for bit. Returns false (L cleared) if A
 // is not positive definite.
-bool supernodal_cholesky(const Eigen::SparseMatrix<double>& A, const std::vector<int>& parent,
+bool supernodal_cholesky(const Eigen::SparseMatrix<double>& A, const std::vector<int>& parent, const std::vector<int>& count,
                          const std::vector<int>& bounds, SparseFactor& L, int threads = 1);
 
 }  // namespace arap
