@@ -225,8 +225,13 @@ class Bake(unittest.TestCase):
         kind, kw = header.layout.calls[-1]
         self.assertEqual(kind, "progress")
         self.assertAlmostEqual(kw["factor"], 0.25)
-        self.assertIn("Esc", kw["text"])
+        self.assertEqual(kw["text"], "1/4")          # what fits the bar's own width
+        # The words go to the viewport, where nothing cuts them.
+        lines = bake_ops.bake_status_lines()
+        self.assertIn("ARAP bake of 'Bar': frame 1 (1 of 4)", lines[0])
+        self.assertIn("Esc", lines[-1])
         run.cancel()
+        self.assertEqual(bake_ops.bake_status_lines(), [])
 
     def test_deleted_empty_is_a_setup_error(self):
         bpy.data.objects.remove(self.empty)

@@ -3,7 +3,8 @@
 
 This file only registers. See api.py for scripting, engine.py (Deform),
 live.py (Live), bake.py, auto.py, native_loader.py for the native bridge,
-operators.py / ui.py / properties.py for the Blender side.
+operators.py / deform_ops.py / live_ops.py / ui.py / properties.py /
+status_overlay.py for the Blender side.
 """
 
 bl_info = {
@@ -20,8 +21,8 @@ if "bpy" in locals():
     # Script reload (F3 > Reload Scripts): reload submodules in dependency order.
     import importlib
     for _name in ("native_loader", "errors", "temp_files", "meshio", "constraints", "problem", "solver_cache",
-                  "sessions", "engine", "live", "anim_compat", "api", "bake", "auto", "properties", "operators",
-                  "ui", "bake_ops"):
+                  "sessions", "status_overlay", "engine", "live", "anim_compat", "api", "bake", "auto", "properties",
+                  "operators", "deform_ops", "live_ops", "ui", "bake_ops"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
@@ -29,10 +30,10 @@ import sys  # noqa: E402
 
 import bpy  # noqa: E402,F401 - its presence in locals() marks a reload
 
-from . import properties, operators, ui, bake_ops, auto, api  # noqa: E402
+from . import properties, operators, deform_ops, live_ops, ui, bake_ops, auto, api, status_overlay  # noqa: E402
 
 # Order matters: bake_ops' panel is a child of ui's ARAP_PT_main; auto adds Blender handlers.
-_modules = (properties, operators, ui, bake_ops, auto)
+_modules = (properties, operators, deform_ops, live_ops, ui, bake_ops, auto, status_overlay)
 PUBLIC_NAME = "arap_deform"
 
 
@@ -61,7 +62,7 @@ def unregister():
     from . import engine, sessions
     sessions.stop_all_sessions()
     engine.clear_cache()
-    operators.live_status_off()
+    live_ops.live_status_off()
     for mod in reversed(_modules):
         mod.unregister()
     for name, module in _script_aliases().items():

@@ -13,9 +13,10 @@ solution whose handles were nearest, and the result is cached: playing a range
 solves each frame once, scrubbing back to a frame writes its cached pose, and
 a frame reached by another path starts from a neighbouring solution, so it
 settles in the same pose within the tolerance (the worst difference is measured
-in the README). In the viewport one update spends at most FRAME_BUDGET_MS on
-iterations and a timer goes on until the pose has settled, then stops (no CPU
-while idle); in --background and while rendering every pose is solved to the end.
+in the README). In the viewport the solves run on a native worker thread
+(SolveWorker) and a timer shows its newest pose until the pose has settled,
+then stops (no CPU while idle): Blender's own input never waits for a solve.
+In --background and while rendering every pose is solved to the end, here.
 
 An error (a deleted Empty, a changed vertex count, Edit Mode) turns Auto off for
 that object, puts its rest shape back and leaves the reason in
@@ -29,10 +30,13 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from . import bake, constraints, errors, meshio, problem, sessions
+from . import bake, constraints, errors, meshio, problem, sessions, status_overlay
 from .errors import SetupError
+from .native_loader import native
 
-FRAME_BUDGET_MS = 30.0      # iterations per viewport update before the UI gets control back
+FRAME_BUDGET_MS = 30.0      # in the viewport, the worker shows a new pose at least this often while it solves
+POLL_S = 1.0 / 60.0         # how often the viewport looks for the worker's newest pose
+SETTLED_SHOWN_S = 2.0       # the viewport says "settled" this long after a pose settles
 CACHE_BYTES = 256 << 20     # solved poses kept per object (least recently used dropped first)
 PROP_CREATED = "arap_auto_created"   # mesh custom property: what turning Auto on created
 
@@ -54,14 +58,17 @@ class AutoPoser:
         self.cache = {}          # pose key -> (float32 positions, handle transforms)
         self.cache_bytes = 0
         self.written = None      # pose key of the mesh's current coordinates
-        self.pending = None      # pose key being solved across updates (viewport budget)
+        self.pending = None      # pose key being solved across updates (by the worker, in the viewport)
         self.iterations = 0      # spent on the pending pose
         self.max_iterations = max(obj.arap.iterations, bake.DEFAULT_ITERATIONS)   # per pose
-        self.ms_per_iteration = 1.0
         self.current = None      # handle transforms of the solver's current state
         self.state_key = None    # the pose key the solver's current state belongs to
         self.by_frame = {}       # frame -> key of its last settled pose (the next frame starts there)
         self.warnings = list(self.problem.setup.warnings)
+        self.name = obj.name
+        self.settled = True          # the shown pose is the settled one of the handles' current place
+        self.settled_at = 0.0        # time.monotonic() when it last settled
+        self.worker = None           # the SolveWorker of the viewport's solves while one runs
 
     def pose(self, obj, depsgraph):
         """(key, object-local handle transforms) of the evaluated scene; the
@@ -72,42 +79,93 @@ class AutoPoser:
                np.concatenate([obj_matrix.ravel()] + [m.ravel() for m in mats]).tobytes())
         return key, transforms
 
-    def update(self, obj, depsgraph, budget_ms):
+    def update(self, obj, depsgraph, on_worker=False):
         """Bring the mesh to the current pose. Returns True when it is settled
-        (False: iterations remain, call again). budget_ms None: no limit."""
-        global solve_count
+        (False: iterations remain, call again). on_worker: solve on the
+        worker's thread and show its newest pose (the viewport); else here,
+        to the end (--background, renders)."""
         key, transforms = self.pose(obj, depsgraph)
         if key == self.written and self.pending is None:
             return True
         hit = self.cache.get(key)
         if hit is not None:
+            self.stop_worker()
+            self.pending = None
             self._write(hit[0], key)
+            self._settled(True)
             return True
+        if on_worker:
+            return self._solve_on_worker(key, transforms)
+        self.stop_worker()
+        return self._solve_here(key, transforms)
+
+    def _targets(self, transforms):
+        return constraints.fill_targets(self.problem.setup, self.problem.rest_constrained, transforms,
+                                        self.problem.targets)
+
+    def _solve_here(self, key, transforms):
+        global solve_count
         if self.pending != key:
             self._warm_start(key, transforms)
             self.pending, self.iterations = key, 0
-        targets = constraints.fill_targets(self.problem.setup, self.problem.rest_constrained, transforms,
-                                           self.problem.targets)
-        start = time.perf_counter()
-        while True:
-            # Chunks of iterations that fit the budget (estimated from the last ones).
-            remaining = self.max_iterations - self.iterations
-            left_ms = None if budget_ms is None else budget_ms - (time.perf_counter() - start) * 1e3
-            chunk = remaining if left_ms is None else max(1, min(remaining, int(left_ms / self.ms_per_iteration)))
-            self.solver.max_iterations = chunk
-            stats = self.solver.solve(targets, out=self.buffer)
-            solve_count += 1
-            self.iterations += stats.iterations
-            if stats.iterations:
-                self.ms_per_iteration = max(1e-3, sum(stats.iteration_ms) / stats.iterations)
-            settled = stats.converged or self.iterations >= self.max_iterations
-            if settled or (budget_ms is not None and (time.perf_counter() - start) * 1e3 >= budget_ms):
-                break
+        targets = self._targets(transforms)
+        self.solver.time_budget_ms = 0.0
+        self.solver.max_iterations = max(1, self.max_iterations - self.iterations)
+        stats = self.solver.solve(targets, out=self.buffer)
+        solve_count += 1
+        self.iterations += stats.iterations
+        self.pending = None
         self._write(self.buffer, key)
+        self._remember(key, self.buffer.copy(), transforms)
+        self._settled(True)
+        return True
+
+    def _solve_on_worker(self, key, transforms):
+        """New targets go to the worker (which goes on from its current state); its newest pose is
+        shown, and cached once it has settled."""
+        global solve_count
+        if self.pending != key:
+            if self.worker is None:
+                self._warm_start(key, transforms)   # the solver is still this thread's: pick the start
+                self.solver.time_budget_ms = FRAME_BUDGET_MS
+                self.solver.max_iterations = self.max_iterations
+                self.worker = native().SolveWorker(self.solver, max_iterations=self.max_iterations)
+            self.state_key, self.current = key, [t.copy() for t in transforms]
+            self.worker.post(self._targets(transforms))
+            solve_count += 1
+            self.pending, self.iterations = key, 0
+        result = self.worker.take(self.buffer)
+        if result is None:
+            self._settled(False)
+            return False
+        self.iterations = result.iterations
+        # Settled only when the worker has nothing newer in hand (result is then the pending pose's).
+        settled = result.settled and self.worker.settled
+        self._write(self.buffer, key if settled else None)
         if settled:
             self.pending = None
             self._remember(key, self.buffer.copy(), transforms)
+            self.stop_worker()
+        self._settled(settled)
         return settled
+
+    def stop_worker(self):
+        """The solver back to this thread (the worker's solve ends after its iteration)."""
+        if self.worker is not None:
+            self.worker.stop()
+            self.worker = None
+
+    def _settled(self, settled):
+        if settled and not self.settled:
+            self.settled_at = time.monotonic()
+            _redraw_later(SETTLED_SHOWN_S)
+        self.settled = settled
+
+    def status(self):
+        """'settling, N iterations' or 'settled after N iterations' (the last pose solved)."""
+        if not self.settled:
+            return "settling, %d iterations" % self.iterations
+        return "settled after %d iterations" % self.iterations if self.iterations else "settled"
 
     def _warm_start(self, key, transforms):
         """Where a new pose starts from. The previous frame's settled pose when
@@ -148,6 +206,25 @@ class AutoPoser:
     def _write(self, positions, key):
         self.output.write(positions)
         self.written = key
+
+
+def status(obj):
+    """Auto mode's state for `obj` as the panel says it ('' before its first pose)."""
+    poser = _posers.get(obj.as_pointer())
+    return poser.status() if poser is not None else ""
+
+
+def auto_status_lines():
+    """What the viewport shows: each Auto object settling, or settled in the last SETTLED_SHOWN_S."""
+    now = time.monotonic()
+    return ["ARAP Auto on '%s': %s" % (p.name, p.status()) for p in _posers.values()
+            if not p.settled or now - p.settled_at < SETTLED_SHOWN_S]
+
+
+def _redraw_later(seconds):
+    """Redraw the viewports once `seconds` from now (to take a line away), in the UI only."""
+    if not bpy.app.background:
+        bpy.app.timers.register(lambda: status_overlay.redraw(), first_interval=seconds + 0.1)
 
 
 def _settings_objects(scene):
@@ -266,7 +343,7 @@ def update_scene(scene, depsgraph=None):
     if _busy:
         return True
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
-    budget = FRAME_BUDGET_MS if _interactive() else None
+    on_worker = _interactive()
     settled = True
     _busy = True
     try:
@@ -277,7 +354,7 @@ def update_scene(scene, depsgraph=None):
                 if obj.mode == 'EDIT':
                     raise SetupError("'%s' is in Edit Mode: Auto posing stopped (the rest shape is shown); "
                                      "turn it on again after editing" % obj.name)
-                settled &= _poser(obj, scene).update(obj, depsgraph, budget)
+                settled &= _poser(obj, scene).update(obj, depsgraph, on_worker)
             except Exception as exc:  # noqa: BLE001 - a handler must never raise; the reason is kept
                 stop(obj, errors.user_error(exc) or "Auto posing stopped: %s" % exc)
     finally:
@@ -295,14 +372,14 @@ def _start_timer():
 
 
 def _continue():
-    """Timer: go on iterating unsettled poses, one budget per call; stop when settled."""
+    """Timer: show the worker's newest poses until every Auto object has settled."""
     global _timer_on
     context = bpy.context
     scene = getattr(context, "scene", None)
     if scene is None or update_scene(scene):
         _timer_on = False
         return None
-    return 0.001
+    return POLL_S
 
 
 @persistent
@@ -335,9 +412,11 @@ _HANDLERS = (("depsgraph_update_post", _on_depsgraph_update), ("frame_change_pos
 def register():
     for name, fn in _HANDLERS:
         getattr(bpy.app.handlers, name).append(fn)
+    status_overlay.add(auto_status_lines)
 
 
 def unregister():
+    status_overlay.remove(auto_status_lines)
     for name, fn in _HANDLERS:
         handlers = getattr(bpy.app.handlers, name)
         if fn in handlers:

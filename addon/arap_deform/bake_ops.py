@@ -12,7 +12,7 @@ bpy.ops.object.arap_bake(frame_start=1, frame_end=100, output='PC2', filepath="/
 import bpy
 from bpy.props import EnumProperty, IntProperty, StringProperty
 
-from . import bake, errors, meshio, sessions, ui
+from . import bake, errors, meshio, sessions, status_overlay, ui
 
 OUTPUT_ITEMS = (
     ('SHAPE_KEYS', "Shape Keys", "One shape key per frame (ARAP_f0001...), keyed on at its frame"),
@@ -46,7 +46,12 @@ class InteractiveBake:
 
     def status(self):
         b = self.baker
-        return "ARAP bake: frame %d (%d of %d)" % (b.frames[max(b.index - 1, 0)], b.index, len(b.frames))
+        return "ARAP bake of '%s': frame %d (%d of %d)" % (b.obj.name, b.frames[max(b.index - 1, 0)], b.index,
+                                                           len(b.frames))
+
+    def count(self):
+        """The progress bar's own text: short enough for its width."""
+        return "%d/%d" % (self.baker.index, len(self.baker.frames))
 
     def step(self):
         """Solve and show one frame; True when every frame is solved."""
@@ -70,14 +75,23 @@ class InteractiveBake:
 
 
 def draw_status_bar(self, _context):
-    """Status bar progress of a running interactive bake (Blender's progress bar on 4.0+)."""
+    """Status bar progress of a running interactive bake (Blender's progress bar on 4.0+); the words
+    are in the viewport (bake_status_lines), where nothing cuts them short."""
     run = InteractiveBake.current
     if run is None:
         return
     if hasattr(self.layout, "progress"):
-        self.layout.progress(factor=run.fraction, type='BAR', text=run.status() + " - Esc to cancel")
+        self.layout.progress(factor=run.fraction, type='BAR', text=run.count())
     else:
-        self.layout.label(text="%s, %d%% - Esc to cancel" % (run.status(), round(100 * run.fraction)))
+        self.layout.label(text="ARAP bake %d%%" % round(100 * run.fraction))
+
+
+def bake_status_lines():
+    """What the viewport shows while an interactive bake runs."""
+    run = InteractiveBake.current
+    if run is None:
+        return []
+    return [run.status(), "Esc: cancel (nothing is changed)"]
 
 
 class ARAP_OT_bake(bpy.types.Operator):
@@ -167,11 +181,14 @@ class ARAP_OT_bake(bpy.types.Operator):
         self._timer = wm.event_timer_add(0.001, window=context.window)
         wm.modal_handler_add(self)
         bpy.types.STATUSBAR_HT_header.append(draw_status_bar)
+        status_overlay.add(bake_status_lines)
         return {'RUNNING_MODAL'}
 
     def _end(self, context):
         context.window_manager.event_timer_remove(self._timer)
         bpy.types.STATUSBAR_HT_header.remove(draw_status_bar)
+        status_overlay.remove(bake_status_lines)
+        status_overlay.redraw(context)
         for area in context.screen.areas if context.screen is not None else ():
             if area.type == 'STATUSBAR':
                 area.tag_redraw()

@@ -14,6 +14,7 @@ import time
 import numpy as np
 
 from . import constraints, meshio, solver_cache
+from .native_loader import native
 from .problem import (Problem, bind_warnings, collapsed_handles_warning, solver_options, sync_matrices,
                       unconverged_warning)
 
@@ -43,35 +44,86 @@ class DeformResult:
                 % (self.iterations, self.energy, self.bind_ms, self.solve_ms, self.io_ms, self.output))
 
 
-def deform(obj, scene=None, iterations=None, tolerance=None, init=None):
+class DeformJob:
+    """One Deform: bind (or reuse the cached bind), solve from the start shape, write.
+
+    run() solves on the caller's thread; start() hands the solve to a native
+    worker thread instead and poll() finishes the job once that solve is done,
+    so the Deform operator keeps Blender responsive (progress shown, Esc
+    stops) on big meshes. Either way the mesh is only written when the solve
+    has finished: a stopped or failed job leaves it untouched.
+    """
+
+    def __init__(self, obj, scene=None, iterations=None, tolerance=None, init=None, iterations_from=None):
+        t0 = time.perf_counter()
+        self.obj, self.scene = obj, scene
+        sync_matrices()
+        self.problem = Problem(obj, scene)
+        self.targets = self.problem.compute_targets(obj, scene)
+        self.solver, self.bind_ms, self.cached = solver_cache.bound_solver(obj, self.problem)
+        self.solver.configure(**solver_options(obj.arap, iterations=iterations, tolerance=tolerance, init=init))
+        self.max_iterations = self.solver.max_iterations
+        # Where the cap was set, for the warning when the pose does not settle (problem.RAISE_ITERATIONS).
+        self.iterations_from = iterations_from or ('SETTINGS' if iterations is None else 'ARGUMENT')
+        self.positions = np.empty(len(self.problem.rest32), np.float32)
+        self.worker = None
+        self._prepare_ms = (time.perf_counter() - t0) * 1e3 - self.bind_ms
+
+    def run(self):
+        """Solve here and write; the DeformResult."""
+        return self._finish(self.solver.solve(self.targets, out=self.positions))
+
+    def start(self):
+        """Solve on the worker's thread; poll() until it returns the DeformResult."""
+        self.worker = native().SolveWorker(self.solver, max_iterations=self.max_iterations)
+        self.worker.post(self.targets)
+
+    @property
+    def progress(self):
+        """(iterations done, energy) of the solve in progress."""
+        return self.worker.progress if self.worker is not None else (0, 0.0)
+
+    def poll(self):
+        """The DeformResult once the worker's solve is done (the mesh written), else None."""
+        result = self.worker.take(self.positions)
+        if result is None:
+            return None
+        self.stop()
+        return self._finish(result.stats)
+
+    def stop(self):
+        """Stop the worker (the solve in progress ends after its iteration); the mesh stays as it is."""
+        if self.worker is not None:
+            self.worker.stop()
+            self.worker = None
+
+    def _finish(self, stats):
+        t0 = time.perf_counter()
+        obj, problem = self.obj, self.problem
+        if problem.output == 'MESH' and not meshio.has_rest_attribute(obj.data):
+            meshio.store_rest(obj.data, problem.rest32)
+        out = meshio.Output(obj, problem.output)
+        out.ensure()
+        out.write(self.positions)
+        report = self.solver.mesh_report()
+        warnings = list(problem.setup.warnings) + bind_warnings(report, problem, obj.arap)
+        for w in (collapsed_handles_warning(problem, self.scene),
+                  unconverged_warning(stats, self.max_iterations, self.solver.tolerance, self.iterations_from)):
+            if w:
+                warnings.append(w)
+        io_ms = self._prepare_ms + (time.perf_counter() - t0) * 1e3
+        return remember_result(obj, DeformResult(stats, self.bind_ms, io_ms, problem.output, warnings, report,
+                                                 self.cached))
+
+
+def deform(obj, scene=None, iterations=None, tolerance=None, init=None, iterations_from=None):
     """One-shot solve from the rest shape; writes the result (mesh or shape key).
 
     Raises SetupError or the native ArapError; the mesh is untouched then.
+    iterations_from: where `iterations` came from (a key of problem.RAISE_ITERATIONS), named by the warning
+    when the pose did not settle; by default the argument, or the Solver panel's setting when it is None.
     """
-    t0 = time.perf_counter()
-    sync_matrices()
-    problem = Problem(obj, scene)
-    targets = problem.compute_targets(obj, scene)
-    solver, bind_ms, cached = solver_cache.bound_solver(obj, problem)
-    solver.configure(**solver_options(obj.arap, iterations=iterations, tolerance=tolerance, init=init))
-    result32 = np.empty(len(problem.rest32), np.float32)
-    t1 = time.perf_counter()
-    stats = solver.solve(targets, out=result32)
-    t2 = time.perf_counter()
-    if problem.output == 'MESH' and not meshio.has_rest_attribute(obj.data):
-        meshio.store_rest(obj.data, problem.rest32)
-    out = meshio.Output(obj, problem.output)
-    out.ensure()
-    out.write(result32)
-    t3 = time.perf_counter()
-    report = solver.mesh_report()
-    warnings = list(problem.setup.warnings) + bind_warnings(report, problem, obj.arap)
-    for w in (collapsed_handles_warning(problem, scene),
-              unconverged_warning(stats, solver.max_iterations, solver.tolerance)):
-        if w:
-            warnings.append(w)
-    io_ms = (t1 - t0 + t3 - t2) * 1000.0 - bind_ms
-    return remember_result(obj, DeformResult(stats, bind_ms, io_ms, problem.output, warnings, report, cached))
+    return DeformJob(obj, scene, iterations, tolerance, init, iterations_from).run()
 
 
 # The last DeformResult or BakeResult of each object in this Blender session (not saved in the .blend).

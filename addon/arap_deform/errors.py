@@ -24,3 +24,12 @@ def user_error(exc):
     if native is not None and isinstance(exc, native.ArapError):
         return "ARAP solver: %s" % exc
     return None
+
+
+def report_error(op, exc):
+    """Report `exc` on operator `op` when a user can act on it and return {'CANCELLED'}; re-raise bugs."""
+    msg = user_error(exc)
+    if msg is None:
+        raise exc
+    op.report({'ERROR'}, msg)
+    return {'CANCELLED'}

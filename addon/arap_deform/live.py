@@ -1,7 +1,13 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""A Live session: bind once, then follow the handle Empties one budgeted,
-warm-started solve at a time (plain class, testable in --background; the
-modal operator in operators.py is a thin shell around it)."""
+"""A Live session: bind once, then follow the handle Empties with warm-started
+solves (plain class, testable in --background; the modal operator in
+live_ops.py drives it from Blender's event loop).
+
+Two ways to drive it: step() solves on the caller's thread (scripts, tests,
+benchmarks); update() is what the modal operator calls on Blender's main
+thread: it hands new targets to a native worker thread (SolveWorker) and shows
+the newest pose that thread has finished, so the viewport never waits for a
+solve whatever the mesh size."""
 
 import time
 
@@ -10,24 +16,24 @@ import numpy as np
 
 from . import constraints, meshio, sessions
 from .errors import SessionError, SetupError
+from .native_loader import native
 from .problem import Problem, bind_warnings, configured_solver, sync_matrices
 
 
 class FrameStats:
-    def __init__(self, read_ms, solve_ms, write_ms, energy, iterations):
-        self.read_ms = read_ms      # empties -> targets
-        self.solve_ms = solve_ms    # native solve (warm start) incl. copy into the float32 buffer
-        self.write_ms = write_ms    # foreach_set + mesh.update()
+    """What one Live update cost (milliseconds) and where the pose stands."""
+
+    def __init__(self, read_ms, solve_ms, write_ms, energy, iterations, main_thread_ms):
+        self.read_ms = read_ms      # empties -> targets (and, with the worker, handing them over)
+        self.solve_ms = solve_ms    # the native solve of the shown pose (on the worker's thread with update())
+        self.write_ms = write_ms    # the pose into the mesh: foreach_set + mesh.update()
         self.energy = energy
         self.iterations = iterations
+        self.main_thread_ms = main_thread_ms   # what the update held the caller's thread (Blender's UI) for
 
     @property
     def io_ms(self):
         return self.read_ms + self.write_ms
-
-    @property
-    def total_ms(self):
-        return self.read_ms + self.solve_ms + self.write_ms
 
 
 # How often a Live session compares the faces in full (see meshio.Topology).
@@ -37,17 +43,24 @@ TOPOLOGY_CHECK_S = 1.0
 SETTLE_BUDGET_FACTOR = 3.0
 
 
-class LiveSession:
-    """Bind once, then step(): read empties, solve warm-started, write.
+def _last_energy(stats):
+    return stats.energy[-1] if stats.energy else stats.initial_energy
 
-    Each step spends at most the frame budget (live_frame_ms) on iterations, so
-    the viewport stays interactive while a handle moves. When nothing moved,
-    step() goes on from where the last one stopped (the quasi-Newton history is
-    kept; up to SETTLE_BUDGET_FACTOR frame budgets a step) until the pose has
-    settled (the tolerance); then, until something moves again,
-    step(force=False) does nothing and returns None: Live sleeps.
-    The modal operator is a thin shell around this; scripts and tests drive
-    it directly. cancel() restores the snapshot taken at start bit for bit.
+
+class LiveSession:
+    """Bind once, then read the empties, solve warm-started, write.
+
+    step() spends at most the frame budget (live_frame_ms) on iterations. When
+    nothing moved, it goes on from where the last one stopped (the
+    quasi-Newton history is kept; up to SETTLE_BUDGET_FACTOR frame budgets a
+    step) until the pose has settled (the tolerance); then, until something
+    moves again, step(force=False) does nothing and returns None: Live sleeps.
+
+    update() runs the same solves, chunks of one frame budget each, on the
+    SolveWorker's thread, and the worker sleeps once the pose has settled (or
+    after the Iterations setting's cap on one set of targets). cancel()
+    restores the snapshot taken at start bit for bit; finish() keeps the
+    newest finished pose.
     """
 
     def __init__(self, obj, scene=None, iterations=None, write=True):
@@ -80,6 +93,8 @@ class LiveSession:
         self.active = True
         self.converged = False
         self._pose = None
+        self.worker = None       # the SolveWorker update() hands the solves to (created by its first call)
+        self._settle_iterations = s.iterations
         if write:
             self.output.ensure()
         sessions.add(self)
@@ -113,10 +128,60 @@ class LiveSession:
         return self.converged
 
     def step(self, force=True):
-        """One update; with force=False returns None when the empties and the
-        object did not move and the last solve had converged (settled)."""
+        """One update, solved on the caller's thread; with force=False returns
+        None when the empties and the object did not move and the last solve
+        had converged (settled)."""
+        self.stop_worker()
         self.check()
         t0 = time.perf_counter()
+        pose, obj_matrix, mats, still = self._read_pose()
+        if not force and self.converged and still:
+            return None
+        # While a handle moves, keep to the frame budget; once it stops, nobody waits for a
+        # new frame of the handle, so the settling updates may take a few times longer.
+        self.solver.time_budget_ms = self.frame_ms * (SETTLE_BUDGET_FACTOR if still else 1.0)
+        targets = self._targets(pose, obj_matrix, mats)
+        t1 = time.perf_counter()
+        stats = self.solver.solve(targets, out=self.buffer)
+        t2 = time.perf_counter()
+        if self.write_enabled:
+            self.output.write(self.buffer)
+        t3 = time.perf_counter()
+        self.converged = stats.converged
+        self.last = FrameStats((t1 - t0) * 1e3, (t2 - t1) * 1e3, (t3 - t2) * 1e3, _last_energy(stats),
+                               stats.iterations, (t3 - t0) * 1e3)
+        return self.last
+
+    def update(self):
+        """One tick of Blender's event loop: when the handles moved, hand the
+        new targets to the worker thread; when the worker finished a solve,
+        show it. Returns FrameStats when the mesh changed, else None. Never
+        waits for a solve (the worker goes on between ticks until the pose
+        has settled, then sleeps)."""
+        self.check()
+        t0 = time.perf_counter()
+        if self.worker is None:
+            self.worker = native().SolveWorker(self.solver, max_iterations=self._settle_iterations)
+        pose, obj_matrix, mats, still = self._read_pose()
+        if not still:
+            self.worker.post(self._targets(pose, obj_matrix, mats))
+            self.converged = False
+        t1 = time.perf_counter()
+        result = self.worker.take(self.buffer)
+        if result is None:
+            return None
+        if self.write_enabled:
+            self.output.write(self.buffer)
+        t2 = time.perf_counter()
+        stats = result.stats
+        self.converged = result.settled and self.worker.settled
+        self.last = FrameStats((t1 - t0) * 1e3, sum(stats.iteration_ms) + stats.init_ms, (t2 - t1) * 1e3,
+                               _last_energy(stats), result.iterations, (t2 - t0) * 1e3)
+        return self.last
+
+    def _read_pose(self):
+        """(pose, object matrix, Empty matrices, still): the world matrices now,
+        and whether they are the ones last solved for."""
         sync_matrices()  # scripts move empties without a depsgraph update; cheap when nothing changed
         try:
             mats = self.problem.empty_matrices(self.scene)
@@ -124,27 +189,27 @@ class LiveSession:
             raise SessionError(str(exc), 'EMPTY') from None
         obj_matrix = constraints.matrix_to_numpy(self.obj.matrix_world)
         pose = np.concatenate([obj_matrix.ravel()] + [m.ravel() for m in mats])
-        still = self._pose is not None and np.array_equal(pose, self._pose)
-        if not force and self.converged and still:
-            return None
+        return pose, obj_matrix, mats, self._pose is not None and np.array_equal(pose, self._pose)
+
+    def _targets(self, pose, obj_matrix, mats):
+        """The constrained vertices' targets for these matrices (remembered as the pose solved for)."""
         self._pose = pose
         self.collapsed = constraints.collapsed_handles(self.problem.setup, mats)
-        # While a handle moves, keep to the frame budget; once it stops, nobody waits for a
-        # new frame of the handle, so the settling updates may take a few times longer.
-        self.solver.time_budget_ms = self.frame_ms * (SETTLE_BUDGET_FACTOR if still else 1.0)
         transforms = constraints.handle_transforms(self.problem.setup, obj_matrix, mats, self.obj.name)
-        targets = constraints.fill_targets(self.problem.setup, self.problem.rest_constrained, transforms,
-                                           self.problem.targets)
-        t1 = time.perf_counter()
-        stats = self.solver.solve(targets, out=self.buffer)
-        t2 = time.perf_counter()
-        if self.write_enabled:
+        return constraints.fill_targets(self.problem.setup, self.problem.rest_constrained, transforms,
+                                        self.problem.targets)
+
+    def stop_worker(self):
+        """Give the solver back to the caller's thread: the worker's solve in progress ends after its
+        iteration (at most one iteration's wait)."""
+        if self.worker is not None:
+            self.worker.stop()
+            self.worker = None
+
+    def _take_newest(self):
+        """Show the newest pose the worker finished (if it finished one not shown yet)."""
+        if self.worker is not None and self.worker.take(self.buffer) is not None and self.write_enabled:
             self.output.write(self.buffer)
-        t3 = time.perf_counter()
-        energy = stats.energy[-1] if stats.energy else stats.initial_energy
-        self.converged = stats.converged
-        self.last = FrameStats((t1 - t0) * 1e3, (t2 - t1) * 1e3, (t3 - t2) * 1e3, energy, stats.iterations)
-        return self.last
 
     def positions(self):
         """The current solution, flat float32 (3n), object-local."""
@@ -187,6 +252,7 @@ class LiveSession:
 
     def cancel(self):
         """Restore the mesh and the handle Empties exactly as they were when the session started."""
+        self.stop_worker()
         if self.active:
             self.active = False
             sessions.discard(self)
@@ -203,6 +269,10 @@ class LiveSession:
             except SessionError:
                 sessions.stop_session(self)
                 raise
+            try:
+                self._take_newest()
+            finally:
+                self.stop_worker()
             self.active = False
             sessions.discard(self)
             if self.problem.output == 'MESH' and not self.snapshot.had_rest:

@@ -1,77 +1,20 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Thin operators: gather from bpy, call engine/api, report."""
+"""The set-up operators (vertex groups and handles from the selection), Reset
+to Rest and Set Rest Pose: gather from bpy, call the API, report. Deform is
+in deform_ops.py, Live in live_ops.py."""
 
 import bmesh
 import bpy
 import numpy as np
-from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
+from bpy.props import StringProperty
 from mathutils import Matrix, Vector
 
-from . import api, errors, live, properties, sessions
+from . import api, errors, sessions
 
 
 def _mesh_object(context):
     obj = context.active_object
     return obj if obj is not None and obj.type == 'MESH' else None
-
-
-def _report_error(op, exc):
-    """Report errors a user can act on and return {'CANCELLED'}; re-raise bugs."""
-    msg = errors.user_error(exc)
-    if msg is None:
-        raise exc
-    op.report({'ERROR'}, msg)
-    return {'CANCELLED'}
-
-
-def _redraw_live(context):
-    """The viewport redraws on input; Live changes the mesh (and its status) between inputs."""
-    screen = context.window.screen if context.window is not None else None
-    for area in (screen.areas if screen is not None else ()):
-        if area.type in {'VIEW_3D', 'STATUSBAR'}:
-            area.tag_redraw()
-
-
-def live_status_text():
-    """What the status bar shows while Live runs ('' when it does not)."""
-    session = sessions.any_session()
-    if session is None or not session.active:
-        return ""
-    last = session.last
-    text = "ARAP Live on '%s': %s" % (session.names[0], "settled" if session.settled else "settling")
-    if last is not None:
-        text += ", %.1f ms/update (%d iterations), energy %.5g" % (last.total_ms, last.iterations, last.energy)
-    return text + " | Enter: apply, Esc: cancel"
-
-
-def _draw_live_status(self, _context):
-    # In the status bar, beside Blender's own hints: a G/R/S keeps its Dx/Dy/angle
-    # read-out in the viewport header, which Live never writes.
-    text = live_status_text()
-    if text:
-        self.layout.label(text=text, icon='PLAY')
-
-
-_status_shown = False
-
-
-def _live_status(on):
-    """Show the Live status in the status bar (on), or stop when no session is left."""
-    global _status_shown
-    if on and not _status_shown:
-        bpy.types.STATUSBAR_HT_header.append(_draw_live_status)
-        _status_shown = True
-    elif not on and _status_shown and sessions.any_session() is None:
-        bpy.types.STATUSBAR_HT_header.remove(_draw_live_status)
-        _status_shown = False
-
-
-def live_status_off():
-    """Take the Live status out of the status bar (the add-on is disabled)."""
-    global _status_shown
-    if _status_shown:
-        bpy.types.STATUSBAR_HT_header.remove(_draw_live_status)
-        _status_shown = False
 
 
 def _selected_vertices(obj):
@@ -212,42 +155,6 @@ class ARAP_OT_handle_remove(bpy.types.Operator):
         return {'FINISHED'}
 
 
-class ARAP_OT_deform(bpy.types.Operator):
-    """Pose the mesh: move the handles' vertices with their empties and solve ARAP (Object Mode)"""
-    bl_idname = "object.arap_deform"
-    bl_label = "ARAP Deform"
-    bl_options = {'REGISTER', 'UNDO'}
-
-    # The redo panel (F9) shows the values the solve used: execute() fills
-    # any not given from the object's settings (properties.py has the tooltips).
-    iterations: IntProperty(name="Iterations", default=100, min=1, max=1000,
-                            description="Most solver rounds; it stops earlier once the pose has settled")
-    tolerance: FloatProperty(name="Tolerance", default=1e-6, min=0.0, max=1.0, precision=7, step=0.0001,
-                             description="Stop when a round improves the pose by less than this fraction")
-    init: EnumProperty(name="Start From", items=properties.INIT_ITEMS, default='NAIVE',
-                       description="The shape the solver starts from")
-
-    def execute(self, context):
-        obj = sessions.target_mesh(context)
-        if obj is not None and sessions.session_for(obj) is not None:
-            self.report({'ERROR'}, "Live is running on '%s': apply or cancel it first" % obj.name)
-            return {'CANCELLED'}
-        if obj is not None:
-            for name in ("iterations", "tolerance", "init"):
-                if not self.properties.is_property_set(name):
-                    setattr(self, name, getattr(obj.arap, name))
-        try:
-            result = api.deform(obj, iterations=self.iterations, tolerance=self.tolerance, init=self.init,
-                                scene=context.scene)
-        except Exception as exc:  # noqa: BLE001 - _report_error re-raises what is not a user error
-            return _report_error(self, exc)
-        for w in result.warnings:
-            self.report({'WARNING'}, w)
-        self.report({'INFO'}, "ARAP: %d iterations, energy %.6g, %.1f ms (bind %.1f ms)"
-                    % (result.iterations, result.energy, result.solve_ms, result.bind_ms))
-        return {'FINISHED'}
-
-
 class _ApplyToActiveObject:
     """Mixin: execute() runs `action` (an api function) on the panel's mesh and reports its errors."""
     action = None
@@ -255,8 +162,8 @@ class _ApplyToActiveObject:
     def execute(self, context):
         try:
             type(self).action(sessions.target_mesh(context))
-        except Exception as exc:  # noqa: BLE001 - _report_error re-raises what is not a user error
-            return _report_error(self, exc)
+        except Exception as exc:  # noqa: BLE001 - report_error re-raises what is not a user error
+            return errors.report_error(self, exc)
         return {'FINISHED'}
 
 
@@ -276,184 +183,13 @@ class ARAP_OT_set_rest_pose(_ApplyToActiveObject, bpy.types.Operator):
     action = staticmethod(api.set_rest_pose)
 
 
-# What the Apply / Cancel operators (the panel's buttons, F3) asked of a running
-# Live session: session -> 'APPLY' or 'CANCEL'. The Live modal operator takes
-# the request at its next event (a timer tick at the latest) and ends itself.
-_end_requests = {}
-
-
-class ARAP_OT_live(bpy.types.Operator):
-    """Pose interactively: the mesh follows its handle empties while you move them. Enter applies, Esc cancels"""
-    bl_idname = "object.arap_live"
-    bl_label = "ARAP Live"
-    bl_options = {'REGISTER', 'UNDO'}
-
-    def __init__(self, *args, **kwargs):
-        super().__init__(*args, **kwargs)
-        self._session = None
-        self._timer = None
-        self._collapsed = []
-
-    def invoke(self, context, event):
-        obj = sessions.target_mesh(context)
-        if obj is not None and sessions.session_for(obj) is not None:
-            self.report({'ERROR'}, "Live is already running on '%s'" % obj.name)
-            return {'CANCELLED'}
-        try:
-            if obj is None or obj.type != 'MESH':
-                raise errors.SetupError("ARAP works on a mesh object: select one and make it active")
-            self._session = live.LiveSession(obj, context.scene)
-            self._session.step()
-        except Exception as exc:  # noqa: BLE001
-            if self._session is not None:
-                self._session.cancel()
-            return _report_error(self, exc)
-        for w in self._session.warnings:
-            self.report({'WARNING'}, w)
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(obj.arap.live_interval, window=context.window)
-        wm.modal_handler_add(self)
-        _live_status(True)
-        return {'RUNNING_MODAL'}
-
-    def execute(self, context):
-        # Scripts without an event loop: use api.start_session() instead.
-        self.report({'ERROR'}, "ARAP Live is interactive; from scripts use arap_deform.api.start_session()")
-        return {'CANCELLED'}
-
-    def modal(self, context, event):
-        try:
-            return self._modal(context, event)
-        except Exception as exc:  # noqa: BLE001 - never leave a half-running session behind
-            if self._session.active:
-                self._end(context, apply=False)
-            return _report_error(self, exc)
-
-    def _modal(self, context, event):
-        session = self._session
-        request = _end_requests.pop(session, None)
-        if request == 'APPLY' or (event.type in {'RET', 'NUMPAD_ENTER'} and event.value == 'PRESS'):
-            return self._end(context, apply=True)
-        # Only Esc (or the panel's Cancel) throws the pose away: right-click belongs to
-        # Blender (it cancels a running G/R/S, or opens a context menu).
-        if request == 'CANCEL' or (event.type == 'ESC' and event.value == 'PRESS'):
-            return self._end(context, apply=False)
-        if event.type == 'TIMER':
-            try:
-                if session.references_lost():
-                    # Ctrl+Z went back one step (Blender reloaded the objects): pose the
-                    # handles as that step had them and go on.
-                    session.reattach(bpy.data.objects, context.scene)
-                    self.report({'INFO'}, "Undo: the handles went back one step; Live goes on (Esc cancels)")
-                if session.step(force=False) is not None:
-                    self._warn_collapsed(session)
-                    _redraw_live(context)
-            except errors.SessionError as exc:
-                return self._end(context, apply=False, error=exc)
-        return {'PASS_THROUGH'}
-
-    def _warn_collapsed(self, session):
-        if session.collapsed != self._collapsed:
-            self._collapsed = session.collapsed
-            if session.collapsed:
-                self.report({'WARNING'}, "The Empty of handle %s is scaled to almost nothing: its vertices collapse "
-                            "to a point" % ", ".join("'%s'" % n for n in session.collapsed))
-
-    def cancel(self, context):
-        # Blender calls this when the modal is aborted (file load, window closed).
-        _end_requests.pop(self._session, None)
-        if self._session is not None and self._session.active:
-            self._cleanup(context)
-            self._session.cancel()
-        _live_status(False)
-
-    def _cleanup(self, context):
-        if self._timer is not None:
-            context.window_manager.event_timer_remove(self._timer)
-            self._timer = None
-
-    def _end(self, context, apply, error=None):
-        _end_requests.pop(self._session, None)
-        try:
-            return self._end_session(context, apply, error)
-        finally:
-            _live_status(False)
-            _redraw_live(context)
-
-    def _end_session(self, context, apply, error):
-        self._cleanup(context)
-        session = self._session
-        if apply:
-            session.finish()
-            self.report({'INFO'}, "ARAP Live applied")
-            return {'FINISHED'}
-        if error is not None and error.kind == 'TOPOLOGY':
-            session.active = False
-            sessions.stop_session(session)
-            self.report({'ERROR'}, str(error) + " (the mesh was not restored)")
-            return {'CANCELLED'}
-        if error is not None and error.kind == 'MODE':
-            # Restore in Object Mode, then go back to the mode the user picked.
-            mode = session.obj.mode
-            with context.temp_override(active_object=session.obj, object=session.obj):
-                bpy.ops.object.mode_set(mode='OBJECT')
-                session.cancel()
-                bpy.ops.object.mode_set(mode=mode)
-        elif error is not None and error.kind == 'OBJECT':
-            sessions.stop_session(session)
-        else:
-            session.cancel()
-        if error is not None:
-            self.report({'ERROR'}, str(error) + " (mesh restored)" if error.kind != 'OBJECT' else str(error))
-        return {'CANCELLED'}
-
-
-def _live_session(context):
-    """The Live session of the active mesh, else the running one (an empty may be active)."""
-    obj = _mesh_object(context)
-    session = sessions.session_for(obj) if obj is not None else None
-    return session or sessions.any_session()
-
-
-class ARAP_OT_live_apply(bpy.types.Operator):
-    """Keep the current Live pose and stop Live (one undo step)"""
-    bl_idname = "object.arap_live_apply"
-    bl_label = "Apply Live"
-
-    @classmethod
-    def poll(cls, context):
-        return _live_session(context) is not None
-
-    def execute(self, context):
-        _end_requests[_live_session(context)] = 'APPLY'
-        return {'FINISHED'}
-
-
-class ARAP_OT_live_cancel(bpy.types.Operator):
-    """Stop Live and restore the mesh exactly as it was"""
-    bl_idname = "object.arap_live_cancel"
-    bl_label = "Cancel Live"
-
-    @classmethod
-    def poll(cls, context):
-        return _live_session(context) is not None
-
-    def execute(self, context):
-        _end_requests[_live_session(context)] = 'CANCEL'
-        return {'FINISHED'}
-
-
 classes = (
     ARAP_OT_add_handle_from_selection,
     ARAP_OT_set_fixed_from_selection,
     ARAP_OT_handle_add,
     ARAP_OT_handle_remove,
-    ARAP_OT_deform,
     ARAP_OT_reset,
     ARAP_OT_set_rest_pose,
-    ARAP_OT_live,
-    ARAP_OT_live_apply,
-    ARAP_OT_live_cancel,
 )
 
 register, unregister = bpy.utils.register_classes_factory(classes)

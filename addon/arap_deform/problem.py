@@ -160,11 +160,21 @@ def bind_warnings(report, problem, settings):
     return [w for w in found if w]
 
 
-def unconverged_warning(stats, max_iterations, tolerance):
+# Where the iteration cap of a solve was set, and what a user raises there (unconverged_warning).
+RAISE_ITERATIONS = {
+    'SETTINGS': "raise Iterations in the Solver panel",
+    'OPERATOR': "raise Iterations in the Adjust Last Operation panel (F9)",
+    'ARGUMENT': "pass a larger iterations=",
+}
+
+
+def unconverged_warning(stats, max_iterations, tolerance, iterations_from='SETTINGS'):
+    """The warning for a solve that hit its iteration cap, naming where the cap was set
+    (RAISE_ITERATIONS' keys)."""
     if stats.converged or tolerance <= 0:
         return None
-    return ("The pose had not settled after %d iterations (tolerance %g): raise Iterations in the Solver "
-            "panel, or run Deform again to go on" % (max_iterations, tolerance))
+    return ("The pose had not settled after %d iterations (tolerance %g): %s, or run Deform again to go on"
+            % (max_iterations, tolerance, RAISE_ITERATIONS[iterations_from]))
 
 
 def collapsed_handles_warning(problem, scene):

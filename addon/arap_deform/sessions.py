@@ -57,6 +57,7 @@ def target_mesh(context):
 
 def stop_session(session):
     """Forget a session without restoring (its object or topology is gone)."""
+    session.stop_worker()
     session.active = False
     _sessions.discard(session)
 
@@ -67,5 +68,6 @@ def stop_all_sessions():
         try:
             session.cancel()
         except (ReferenceError, ValueError):
+            session.stop_worker()
             session.active = False
             _sessions.discard(session)

@@ -4,7 +4,7 @@ puts every operator in F3 search (Object menu and Edit Mode Vertex menu)."""
 
 import bpy
 
-from . import sessions
+from . import auto, sessions
 
 
 class ARAP_UL_handles(bpy.types.UIList):
@@ -80,6 +80,8 @@ class ARAP_PT_main(bpy.types.Panel):
         col.prop(s, "auto", text="Auto (follow the handles)", toggle=True, icon='AUTO')
         if s.auto_status and not s.auto:
             col.label(text=s.auto_status, icon='ERROR')
+        elif s.auto and auto.status(obj):
+            col.label(text="Auto: " + auto.status(obj), icon='INFO')
         if session is None:
             col.operator("object.arap_deform", text="Deform", icon='MOD_SIMPLEDEFORM')
             col.operator("object.arap_live", text="Live", icon='PLAY')
@@ -87,8 +89,10 @@ class ARAP_PT_main(bpy.types.Panel):
             row = col.row(align=True)
             row.operator("object.arap_live_apply", text="Apply", icon='CHECKMARK')
             row.operator("object.arap_live_cancel", text="Cancel", icon='CANCEL')
+            state = "settled" if session.settled else "settling"
             if session.last is not None:
-                col.label(text="%.1f ms/frame, energy %.5g" % (session.last.total_ms, session.last.energy))
+                state += ", %.1f ms per update" % session.last.main_thread_ms
+            col.label(text="Live: " + state, icon='INFO')
         col = layout.column(align=True)
         col.operator("object.arap_reset", text="Reset to Rest", icon='LOOP_BACK')
         col.operator("object.arap_set_rest_pose", text="Set Rest Pose", icon='ARMATURE_DATA')

@@ -10,114 +10,10 @@
 # expects. Limits are generous (a loaded 2-core machine, software OpenGL); on
 # a failure the screenshot (failure.png) and Blender's log stay in <out>.
 import argparse
-import json
 import os
-import shutil
-import subprocess
 import sys
-import time
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-WINDOW_WIDTH, WINDOW_HEIGHT = 1280, 800   # the Xvfb screen of blender_tests/CMakeLists.txt
-
-
-class Fail(Exception):
-    pass
-
-
-class Gui:
-    def __init__(self, blender, out):
-        self.out = out
-        self.drags = 0
-        self.during_drag = {}
-        shutil.rmtree(out, ignore_errors=True)
-        os.makedirs(out)
-        self.log = open(os.path.join(out, "blender.log"), "w")
-        # A pyenv/virtualenv python first on PATH can make Blender's embedded
-        # Python pick the wrong prefix (no numpy): drop those PATH entries.
-        env = dict(os.environ)
-        env["PATH"] = os.pathsep.join(p for p in env.get("PATH", "").split(os.pathsep)
-                                      if "pyenv" not in p and "virtualenv" not in p)
-        self.proc = subprocess.Popen(
-            [blender, "--factory-startup", "-noaudio", "--window-geometry", "0", "0", str(WINDOW_WIDTH), str(WINDOW_HEIGHT),
-             "--python", os.path.join(HERE, "gui_session.py"), "--", out],
-            stdout=self.log, stderr=subprocess.STDOUT, env=env)
-
-    def state(self):
-        try:
-            with open(os.path.join(self.out, "state.json")) as f:
-                return json.load(f)
-        except (OSError, ValueError):
-            return {}
-
-    def wait(self, what, pred, timeout=90.0):
-        end = time.time() + timeout
-        while time.time() < end:
-            if self.proc.poll() is not None:
-                raise Fail("Blender exited (code %s) while waiting for %s" % (self.proc.returncode, what))
-            s = self.state()
-            if s.get("errors"):
-                raise Fail("Blender-side error:\n" + "\n".join(s["errors"]))
-            if s and pred(s):
-                return s
-            time.sleep(0.2)
-        raise Fail("timed out waiting for %s; last state: %s" % (what, json.dumps(self.state())[:2000]))
-
-    def settle(self, ticks=3, timeout=90.0):
-        """Wait until Blender's event loop has run `ticks` more times."""
-        start = self.state().get("tick", 0)
-        return self.wait("Blender to handle the input", lambda s: s.get("tick", 0) >= start + ticks, timeout)
-
-    def command(self, name, arg=""):
-        with open(os.path.join(self.out, name), "w") as f:
-            f.write(arg)
-
-    def xdo(self, *args):
-        subprocess.run(["xdotool", *args], check=True)
-
-    def shot(self, name):
-        subprocess.run(["import", "-window", "root", os.path.join(self.out, name)], check=False)
-
-    def drag_with_g(self, centre, dx, dy, follows):
-        """G, move the pointer in small steps, check `follows(state)` while the
-        transform runs, then click to confirm. G is pressed again if the
-        first press was lost (the empty never moved)."""
-        x, y = centre
-        before = self.state()["empty_location"]
-        for attempt in (1, 2):
-            self.xdo("mousemove", str(x), str(y))
-            self.settle()
-            self.xdo("key", "g")
-            self.settle()
-            for i in range(1, 11):  # small steps: Blender sees a continuous motion
-                self.xdo("mousemove", str(x + dx * i // 10), str(y + dy * i // 10))
-                self.settle(1)
-            try:
-                self.wait("the empty to follow the pointer (G)",
-                          lambda s: moved(s["empty_location"], before) > 0.05, timeout=30 * attempt)
-                break
-            except Fail:
-                if attempt == 2:
-                    raise
-                self.xdo("key", "Escape")  # whatever took the key, leave it
-                self.settle()
-        self.during_drag = self.wait("the mesh to follow during the drag", follows)
-        self.drags += 1
-        self.shot("during_drag_%d.png" % self.drags)
-        self.xdo("click", "1")
-        self.settle()
-
-    def quit(self):
-        if self.proc.poll() is None:
-            self.command("cmd_quit")
-            try:
-                self.proc.wait(15)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-
-
-def moved(a, b):
-    return sum((x - y) ** 2 for x, y in zip(a, b)) ** 0.5
+from gui_driver import WINDOW_HEIGHT, Fail, Gui, moved
 
 
 def run(gui):
@@ -155,8 +51,7 @@ def run(gui):
     if not s2.get("live_running"):
         raise Fail("Live stopped after the move")
     gui.shot("02_after_move.png")
-    if "Esc: cancel" not in s2.get("live_status", ""):
-        raise Fail("the status bar does not show Live's state: %r" % s2.get("live_status"))
+    check_live_status(sd)
 
     # Right-click belongs to Blender (here: the object context menu), it does not cancel Live.
     cx, cy = s1["viewport_centre"]
@@ -239,6 +134,7 @@ def run(gui):
             or abs(redo["tolerance"] - 1e-5) > 1e-9:
         raise Fail("the redo panel does not show the values Deform used: %s" % redo)
     auto_mode(gui)
+    big_deform(gui)
     shot_path = os.path.join(gui.out, "06_blender_screenshot.png")
     gui.command("cmd_screenshot", shot_path)
     gui.wait("Blender's own screenshot", lambda s: os.path.exists(shot_path))
@@ -246,6 +142,42 @@ def run(gui):
         log = f.read()
     if "Traceback" in log:
         raise Fail("Python errors in Blender's log (panel drawing, operators):\n" + log[-3000:])
+
+
+def check_live_status(s):
+    """During G, Live says what it does in the viewport's corner (Blender's status bar is full of
+    the transform's own hints there): settling or settled, the update time, Enter and Esc."""
+    lines = s.get("overlay", [])
+    print("viewport status during the drag:", lines)
+    if not lines or "ARAP Live on 'Bar'" not in lines[0] or "Esc: cancel" not in lines[-1]:
+        raise Fail("the viewport does not show Live's status during G: %r" % lines)
+    if not any("ms per update" in line for line in lines):
+        raise Fail("Live's status does not give the update time: %r" % lines)
+
+
+def big_deform(gui):
+    """Deform on a finer mesh, set to run for minutes: the viewport shows its progress and keeps
+    running (Blender's event loop ticks on), and Esc stops it with the mesh untouched."""
+    gui.command("cmd_big_deform")
+    s0 = gui.wait("Deform running with its progress shown",
+                  lambda s: s.get("deform_running") and any("ARAP Deform on 'Big'" in line
+                                                            for line in s.get("overlay", [])))
+    if s0.get("deform_invoke") != ["RUNNING_MODAL"]:
+        raise Fail("Deform from the panel did not run modal: %s" % s0.get("deform_invoke"))
+    s1 = gui.settle(ticks=10)   # the event loop goes on while the worker solves
+    if not s1.get("deform_running"):
+        raise Fail("the minutes-long Deform ended by itself: %s" % s1.get("overlay"))
+    progress = [line for line in s1["overlay"] if "ARAP Deform on 'Big'" in line]
+    print("Deform's progress while the viewport runs:", progress, "(%d vertices)" % s1.get("big_vertices", 0))
+    gui.shot("09_deform_progress.png")
+    gui.xdo("mousemove", *map(str, s0["viewport_centre"]))
+    gui.xdo("key", "Escape")
+    s2 = gui.wait("Esc to stop Deform", lambda s: not s.get("deform_running"))
+    if s2.get("big_now_hash") != s2.get("big_hash"):
+        raise Fail("Esc stopped Deform but the mesh was changed")
+    if any("ARAP Deform" in line for line in gui.settle().get("overlay", [])):
+        raise Fail("Deform's progress stayed in the viewport after Esc")
+    print("Esc stopped Deform; the mesh is untouched")
 
 
 def offset(s):
@@ -290,7 +222,7 @@ def main():
     ap.add_argument("--blender", default="blender")
     ap.add_argument("--out", required=True)
     args = ap.parse_args()
-    gui = Gui(args.blender, args.out)
+    gui = Gui(args.blender, args.out, "gui_session.py")
     try:
         run(gui)
     except Fail as exc:

@@ -6,9 +6,9 @@
 # to drive_gui.py through files in <out dir>:
 #   state.json   written every 0.2 s: vertex hash, top centroid, empty location, Live state, viewport centre
 #   cmd_*        commands from the driver: cmd_live (start Live), cmd_select_empty, cmd_auto (Auto mode on), cmd_animate
-#                (keyframe the Empty), cmd_redo_settings, cmd_screenshot, cmd_quit
+#                (keyframe the Empty), cmd_redo_settings, cmd_big_deform (a Deform that would run for minutes on a
+#                second, finer tube "Big", invoked as a button does), cmd_screenshot, cmd_quit
 import hashlib
-import json
 import os
 import sys
 import traceback
@@ -19,19 +19,31 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import session_files  # noqa: E402
+
 OUT = sys.argv[sys.argv.index("--") + 1]
 # "tick" counts the state writes: the driver waits for it to advance to know
 # that Blender's event loop has run (and so handled the input sent before).
 STATE = {"ready": False, "errors": [], "tick": 0}
 
 
-def view3d():
-    win = bpy.context.window_manager.windows[0]
-    for area in win.screen.areas:
-        if area.type == 'VIEW_3D':
-            region = next(r for r in area.regions if r.type == 'WINDOW')
-            return win, area, region
-    raise RuntimeError("no 3D viewport")
+def add_bar(name, around, cuts, x=0.0):
+    """An upright cylinder of height 2 at (x, 0, 0), `cuts` times subdivided along its height, with the
+    vertex groups "bottom" (z < -0.7) and "top" (z > 0.7)."""
+    bpy.ops.mesh.primitive_cylinder_add(vertices=around, depth=2.0, radius=0.3, location=(x, 0.0, 0.0))
+    obj = bpy.context.active_object
+    obj.name = name
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    side = [e for e in bm.edges if abs(e.verts[0].co.z - e.verts[1].co.z) > 1e-6]
+    bmesh.ops.subdivide_edges(bm, edges=side, cuts=cuts, use_grid_fill=False)
+    bm.to_mesh(obj.data)
+    bm.free()
+    for group, pred in (("bottom", lambda z: z < -0.7), ("top", lambda z: z > 0.7)):
+        g = obj.vertex_groups.new(name=group)
+        g.add([v.index for v in obj.data.vertices if pred(v.co.z)], 1.0, 'REPLACE')
+    return obj
 
 
 def setup():
@@ -39,18 +51,7 @@ def setup():
     from arap_deform import api
     for ob in list(bpy.data.objects):
         bpy.data.objects.remove(ob)
-    bpy.ops.mesh.primitive_cylinder_add(vertices=16, depth=2.0, radius=0.3)
-    obj = bpy.context.active_object
-    obj.name = "Bar"
-    bm = bmesh.new()
-    bm.from_mesh(obj.data)
-    side = [e for e in bm.edges if abs(e.verts[0].co.z - e.verts[1].co.z) > 1e-6]
-    bmesh.ops.subdivide_edges(bm, edges=side, cuts=12, use_grid_fill=False)
-    bm.to_mesh(obj.data)
-    bm.free()
-    for name, pred in (("bottom", lambda z: z < -0.7), ("top", lambda z: z > 0.7)):
-        g = obj.vertex_groups.new(name=name)
-        g.add([v.index for v in obj.data.vertices if pred(v.co.z)], 1.0, 'REPLACE')
+    obj = add_bar("Bar", around=16, cuts=12)
     api.set_fixed(obj, "bottom")
     empty = bpy.data.objects.new("TopEmpty", None)
     empty.empty_display_type = 'SPHERE'
@@ -64,7 +65,7 @@ def setup():
     STATE["top"] = [v.index for v in obj.data.vertices if v.co.z > 0.7]
     STATE["rest_hash"] = coords_hash(obj)
     # Show the sidebar on the ARAP tab so the panel is drawn (and screenshotted).
-    win, area, region = view3d()
+    win, area, region = session_files.view3d()
     area.spaces.active.show_region_ui = True
     # Close enough that the bar fills the view and its bend reads in the screenshots.
     view = area.spaces.active.region_3d
@@ -96,7 +97,7 @@ def coords_hash(obj):
 
 
 def start_live():
-    win, area, region = view3d()
+    win, area, region = session_files.view3d()
     obj = bpy.data.objects["Bar"]
     with bpy.context.temp_override(window=win, area=area, region=region, active_object=obj, object=obj):
         result = bpy.ops.object.arap_live('INVOKE_DEFAULT')
@@ -141,14 +142,38 @@ def report_redo_panel():
 
 
 def screenshot(name):
-    win, area, _region = view3d()
+    win, area, _region = session_files.view3d()
     path = os.path.join(OUT, name)
     with bpy.context.temp_override(window=win, area=area):
         bpy.ops.screen.screenshot(filepath=path)
 
 
+def big_deform():
+    """A finer tube (about 30k vertices), its top pulled aside, with settings that keep Deform busy
+    for minutes (the textbook method, tolerance 0, a high cap); Deform invoked as the panel's button
+    does."""
+    from arap_deform import api
+    if "Big" not in bpy.data.objects:
+        big = add_bar("Big", around=128, cuts=240, x=1.5)
+        api.set_fixed(big, "bottom")
+        empty = bpy.data.objects.new("BigEmpty", None)
+        bpy.context.scene.collection.objects.link(empty)
+        empty.matrix_world = Matrix.Translation((1.5, 0.0, 1.0))
+        api.add_handle(big, "top", empty)
+        empty.location.x += 0.6
+        big.arap.method, big.arap.tolerance, big.arap.iterations = 'LOCAL_GLOBAL', 0.0, 10000
+        bpy.context.view_layer.update()
+        STATE["big_hash"] = coords_hash(big)
+        STATE["big_vertices"] = len(big.data.vertices)
+    big = bpy.data.objects["Big"]
+    bpy.context.view_layer.objects.active = big
+    win, area, region = session_files.view3d()
+    with bpy.context.temp_override(window=win, area=area, region=region, active_object=big, object=big):
+        STATE["deform_invoke"] = list(bpy.ops.object.arap_deform('INVOKE_DEFAULT'))
+
+
 def write_state():
-    from arap_deform import operators, sessions
+    from arap_deform import deform_ops, live_ops, sessions, status_overlay
     obj = bpy.data.objects.get("Bar")
     if obj is not None and STATE["ready"]:
         co = np.empty(len(obj.data.vertices) * 3, np.float32)
@@ -159,35 +184,31 @@ def write_state():
         STATE["empty_location"] = list(bpy.data.objects["TopEmpty"].matrix_world.translation)
         session = sessions.session_for(obj)
         STATE["live_running"] = session is not None
-        STATE["live_status"] = operators.live_status_text()
+        STATE["live_status"] = live_ops.live_status_text()
+        STATE["overlay"] = status_overlay.lines()
+        STATE["deform_running"] = deform_ops.ARAP_OT_deform.running is not None
+        big = bpy.data.objects.get("Big")
+        if big is not None:
+            STATE["big_now_hash"] = coords_hash(big)
         active = bpy.context.view_layer.objects.active
         STATE["active"] = active.name if active is not None else None
-        win, area, region = view3d()
+        win, area, region = session_files.view3d()
         STATE["auto"] = obj.arap.auto
         STATE["auto_status"] = obj.arap.auto_status
         STATE["frame"] = bpy.context.scene.frame_current
         STATE["playing"] = bool(win.screen.is_animation_playing)
         if session is not None and session.last is not None:
-            STATE["frame_ms"] = session.last.total_ms
+            STATE["frame_ms"] = session.last.main_thread_ms
             STATE["energy"] = session.last.energy
-        STATE["viewport_centre"] = [region.x + region.width // 2, win.height - (region.y + region.height // 2)]
+        STATE["viewport_centre"] = session_files.viewport_centre(win, region)
         ui = next(r for r in area.regions if r.type == 'UI')
         # Screen x of the sidebar's tab column (right edge) and y of its top.
         STATE["sidebar_tabs"] = [ui.x + ui.width - 12, win.height - (ui.y + ui.height)]
-    STATE["tick"] += 1
-    tmp = os.path.join(OUT, "state.json.tmp")
-    with open(tmp, "w") as f:
-        json.dump(STATE, f)
-    os.replace(tmp, os.path.join(OUT, "state.json"))
+    session_files.write_state(OUT, STATE)
 
 
 def take(cmd):
-    path = os.path.join(OUT, cmd)
-    if os.path.exists(path):
-        arg = open(path).read().strip()
-        os.remove(path)
-        return arg if arg else True
-    return None
+    return session_files.take(OUT, cmd)
 
 
 def tick():
@@ -202,6 +223,8 @@ def tick():
             auto_on()
         if take("cmd_animate"):
             animate_empty()
+        if take("cmd_big_deform"):
+            big_deform()
         if take("cmd_redo_settings"):
             obj = bpy.data.objects["Bar"]
             obj.arap.iterations, obj.arap.tolerance, obj.arap.init = 37, 1e-5, 'LAPLACIAN'

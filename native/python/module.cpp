@@ -20,6 +20,7 @@
 #include "arap/errors.h"
 #include "arap/mesh_check.h"
 #include "arap/options.h"
+#include "arap/solve_worker.h"
 #include "arap/solver.h"
 
 namespace py = pybind11;
@@ -182,6 +183,15 @@ arap::Options with_options(arap::Options o, const py::kwargs& kwargs) {
   return o;
 }
 
+// The solver, unless a SolveWorker owns it (its thread may be solving right now).
+arap::Solver& idle(arap::Solver& s) {
+  if (s.busy())
+    throw arap::Error(arap::ErrorCode::Busy,
+                      "the solver is in use by a SolveWorker: call the worker's stop() before using the solver");
+  return s;
+}
+const arap::Solver& idle(const arap::Solver& s) { return idle(const_cast<arap::Solver&>(s)); }
+
 }  // namespace
 
 PYBIND11_MODULE(_arap_native, m) {
@@ -301,6 +311,7 @@ PYBIND11_MODULE(_arap_native, m) {
               stiff.assign(a.data(), a.data() + a.size());
             }
             const arap::Options o = with_options(arap::Options(), options);
+            idle(s);
             py::gil_scoped_release release;
             s.bind(r.map(), tri, con, o, stiff);
           },
@@ -311,6 +322,7 @@ PYBIND11_MODULE(_arap_native, m) {
       .def(
           "configure",
           [](arap::Solver& s, const py::kwargs& options) {
+            idle(s);
             const arap::Options o = with_options(s.options(), options);
             for (const arap::OptionSpec& spec : arap::option_specs())
               if (spec.needs_bind && option_value(spec, o).not_equal(option_value(spec, s.options())))
@@ -322,6 +334,7 @@ PYBIND11_MODULE(_arap_native, m) {
       .def(
           "solve",
           [](arap::Solver& s, const py::array& targets, py::object out) {
+            idle(s);
             PointsView t = view_points(targets, "targets");
             OutBuffer b;
             py::array out_arr;
@@ -342,6 +355,7 @@ PYBIND11_MODULE(_arap_native, m) {
       .def(
           "positions",
           [](const arap::Solver& s, py::object out) -> py::object {
+            idle(s);
             if (out.is_none()) {
               py::array_t<double> a({static_cast<py::ssize_t>(s.positions().rows()), py::ssize_t(3)});
               std::memcpy(a.mutable_data(), s.positions().data(), sizeof(double) * s.positions().size());
@@ -361,13 +375,14 @@ PYBIND11_MODULE(_arap_native, m) {
           "set_positions",
           [](arap::Solver& s, const py::array& p) {
             PointsView v = view_points(p, "positions");
-            s.set_positions(v.map());
+            idle(s).set_positions(v.map());
           },
           py::arg("positions"))
       .def(
           "energy",
           [](const arap::Solver& s, const py::array& p) {
             PointsView v = view_points(p, "positions");
+            idle(s);
             py::gil_scoped_release release;
             return s.energy(v.map());
           },
@@ -376,6 +391,7 @@ PYBIND11_MODULE(_arap_native, m) {
           "energy_gradient",
           [](const arap::Solver& s, const py::array& p) {
             PointsView v = view_points(p, "positions");
+            idle(s);
             RowPoints g;
             {
               py::gil_scoped_release release;
@@ -391,7 +407,65 @@ PYBIND11_MODULE(_arap_native, m) {
       .def_property_readonly("vertex_count", &arap::Solver::vertex_count)
       .def_property_readonly("bind_ms", [](const arap::Solver& s) { return s.bind_stats().total_ms; })
       .def_property_readonly("factor_nonzeros", &arap::Solver::factor_nonzeros)
-      .def_property_readonly("constrained", &arap::Solver::constrained);
+      .def_property_readonly("constrained", &arap::Solver::constrained)
+      .def_property_readonly("busy", &arap::Solver::busy, "True while a SolveWorker owns the solver");
+
+  py::class_<arap::SolveWorker::Result>(m, "WorkerResult", "The newest solve a SolveWorker finished.")
+      .def_readonly("stats", &arap::SolveWorker::Result::stats, "SolveStats of that solve")
+      .def_readonly("serial", &arap::SolveWorker::Result::serial, "solves finished by the worker so far")
+      .def_readonly("iterations", &arap::SolveWorker::Result::iterations,
+                    "iterations spent on the current targets, all solves together")
+      .def_readonly("settled", &arap::SolveWorker::Result::settled,
+                    "converged or out of iterations: the worker sleeps until new targets come");
+
+  py::class_<arap::SolveWorker>(m, "SolveWorker",
+                                "Solves on a native thread of its own (no GIL): post() the targets, take() the newest\n"
+                                "finished solve. While it exists, the solver refuses every other call (ArapError,\n"
+                                "code 'solver busy'); stop() gives it back.")
+      .def(py::init([](arap::Solver& solver, int max_iterations) {
+             return std::make_unique<arap::SolveWorker>(solver, max_iterations);
+           }),
+           py::arg("solver"), py::arg("max_iterations"), py::keep_alive<1, 2>(),
+           "solver: bound, its options set (time_budget_ms and max_iterations make each solve a chunk);\n"
+           "max_iterations: the most iterations spent on one set of targets, all solves together.")
+      .def(
+          "post",
+          [](arap::SolveWorker& w, const py::array& targets) {
+            PointsView t = view_points(targets, "targets");
+            w.post(t.map());
+          },
+          py::arg("targets"), "New targets (#constrained by 3); returns at once.")
+      .def(
+          "take",
+          [](arap::SolveWorker& w, py::array out) -> py::object {
+            const OutBuffer b = check_out(out, w.vertex_count(), "out");
+            arap::SolveWorker::Result result;
+            bool taken;
+            {
+              py::gil_scoped_release release;
+              taken = w.take(result, [&b](const RowPoints& positions) { copy_out(positions, b); });
+            }
+            if (!taken) return py::none();
+            return py::cast(std::move(result));
+          },
+          py::arg("out"),
+          "The newest finished solve, written into `out`, as a WorkerResult; None when none finished since\n"
+          "the last take(). A solve that failed raises its error here.")
+      .def_property_readonly("progress",
+                             [](const arap::SolveWorker& w) {
+                               const arap::SolveProgress p = w.progress();
+                               return py::make_tuple(p.iterations, p.energy);
+                             },
+                             "(iterations, energy) of the solve in progress")
+      .def_property_readonly("settled", &arap::SolveWorker::settled,
+                             "every posted target set has settled (or failed) and nothing new came")
+      .def(
+          "stop",
+          [](arap::SolveWorker& w) {
+            py::gil_scoped_release release;
+            w.stop();
+          },
+          "End the solve in progress after its current iteration and give the solver back.");
 
   // One property per option (OPTIONS); those fixed at bind() (weights, volume) are read-only.
   for (const arap::OptionSpec& spec : arap::option_specs()) {
@@ -404,7 +478,7 @@ PYBIND11_MODULE(_arap_native, m) {
     solver.def_property(spec.name, get, py::cpp_function([name](arap::Solver& s, const py::object& value) {
                           py::dict one;
                           one[py::str(name)] = value;
-                          s.options() = with_options(s.options(), py::kwargs(one));
+                          idle(s).options() = with_options(s.options(), py::kwargs(one));
                         }),
                         ("the option " + name + ": " + arap::option_limits(spec)).c_str());
   }

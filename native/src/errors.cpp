@@ -12,6 +12,7 @@ const char* error_code_name(ErrorCode code) {
     case ErrorCode::DuplicateConstraint: return "duplicate constraint";
     case ErrorCode::NotBound: return "not bound";
     case ErrorCode::Factorization: return "factorization failed";
+    case ErrorCode::Busy: return "solver busy";
   }
   return "unknown error";
 }

@@ -1,6 +1,7 @@
 #include "arap/solver.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -378,7 +379,14 @@ struct Solver::Impl {
   }
 };
 
-Solver::Solver() : impl_(std::make_unique<Impl>()) {}
+struct Solver::Shared {
+  std::atomic<bool> stop{false};
+  std::atomic<bool> busy{false};
+  std::atomic<int> iterations{0};
+  std::atomic<double> energy{0.0};
+};
+
+Solver::Solver() : impl_(std::make_unique<Impl>()), shared_(std::make_unique<Shared>()) {}
 Solver::~Solver() = default;
 Solver::Solver(Solver&&) noexcept = default;
 Solver& Solver::operator=(Solver&&) noexcept = default;
@@ -481,6 +489,7 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     s.apply_targets(s.targets, s.state);
     s.first_guess(guess);
     stats.init_ms = ms_since(t);
+    shared_->iterations.store(0, std::memory_order_relaxed);
 
     // Volume::Global runs on the quasi-Newton path (local/global: without its history), see volume.h.
     const bool quasi_newton = s.options.method == Method::QuasiNewton ||
@@ -511,6 +520,7 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       s.free_before.resize(nf3), s.free_after.resize(nf3), s.free_next.resize(nf3);
       s.anderson.reset(s.options.anderson_window, static_cast<Eigen::Index>(nf3));
     }
+    shared_->energy.store(energy_to_user_units(stats.initial_energy, s.unit), std::memory_order_relaxed);
     const double tolerance = s.options.tolerance;
     for (int it = 0; it < s.options.max_iterations; ++it) {
       t = Clock::now();
@@ -532,9 +542,12 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       stats.iteration_ms.push_back(ms_since(t));
       stats.energy.push_back(e);
       stats.iterations = it + 1;
+      shared_->energy.store(energy_to_user_units(e, s.unit), std::memory_order_relaxed);
+      shared_->iterations.store(it + 1, std::memory_order_relaxed);
       if (stats.converged) break;
       previous_energy = e;
       if (s.options.time_budget_ms > 0 && ms_since(solve_start) >= s.options.time_budget_ms) break;
+      if (shared_->stop.load(std::memory_order_relaxed)) break;
     }
     s.last_energy = stats.energy.empty() ? stats.initial_energy : stats.energy.back();
     if (s.volume.active()) stats.volume_drift = s.volume.drift(s.state.data());
@@ -576,6 +589,21 @@ void Solver::set_positions(const Eigen::Ref<const Points>& positions) {
   s.rotations_valid = false;
   s.qn_resumable = false;
 }
+
+void Solver::set_stop_requested(bool stop) { shared_->stop.store(stop); }
+
+SolveProgress Solver::progress() const {
+  return {shared_->iterations.load(std::memory_order_relaxed), shared_->energy.load(std::memory_order_relaxed)};
+}
+
+bool Solver::busy() const { return shared_->busy.load(); }
+
+bool Solver::claim() {
+  bool expected = false;
+  return shared_->busy.compare_exchange_strong(expected, true);
+}
+
+void Solver::release() { shared_->busy.store(false); }
 
 Options& Solver::options() { return impl_->options; }
 const Options& Solver::options() const { return impl_->options; }

@@ -51,4 +51,17 @@ inline arap::Points rows_of(const arap::Points& P, const std::vector<int>& idx) 
   return out;
 }
 
+constexpr int kBentAround = 16, kBentRings = 21;
+
+// A tube with its bottom ring fixed and its top ring moved sideways by `shift` (the bar bend).
+struct BentTube {
+  Mesh mesh = tube(kBentAround, kBentRings, 6.0);
+  std::vector<int> constrained = concat(ring_vertices(kBentAround, 0), ring_vertices(kBentAround, kBentRings - 1));
+  arap::Points targets;
+  explicit BentTube(double shift = 2.5) {
+    targets = rows_of(mesh.V, constrained);
+    for (int k = kBentAround; k < 2 * kBentAround; ++k) targets(k, 0) += shift;
+  }
+};
+
 }  // namespace arap_test

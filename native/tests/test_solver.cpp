@@ -18,18 +18,8 @@ using arap_test::expect_gradient_matches_finite_differences;
 using arap_test::ring_vertices;
 using arap_test::rows_of;
 
-constexpr int kAround = 16, kRings = 21;
-
-// A tube with its bottom ring fixed and its top ring moved sideways (the bar bend).
-struct BentTube {
-  arap_test::Mesh mesh = arap_test::tube(kAround, kRings, 6.0);
-  std::vector<int> constrained = concat(ring_vertices(kAround, 0), ring_vertices(kAround, kRings - 1));
-  arap::Points targets;
-  explicit BentTube(double shift = 2.5) {
-    targets = rows_of(mesh.V, constrained);
-    for (int k = kAround; k < 2 * kAround; ++k) targets(k, 0) += shift;
-  }
-};
+using arap_test::BentTube;
+constexpr int kAround = arap_test::kBentAround, kRings = arap_test::kBentRings;
 
 arap::Options options_with(arap::InitialGuess init, int iterations, double tolerance = 0,
                            arap::Method method = arap::Method::QuasiNewton) {

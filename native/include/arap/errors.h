@@ -16,6 +16,7 @@ enum class ErrorCode {
   DuplicateConstraint,
   NotBound,          // solve() before bind()
   Factorization,     // the sparse Cholesky failed (should not happen after checks)
+  Busy,              // the solver is in use by a SolveWorker on another thread
 };
 
 const char* error_code_name(ErrorCode code);

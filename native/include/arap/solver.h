@@ -35,12 +35,20 @@ struct SolveStats {
   double volume_drift = 0;            // Volume::Global: largest |V / V_rest - 1| of a kept component at the end
 };
 
+// How far the solve() in progress has come (Solver::progress(), readable from another thread).
+struct SolveProgress {
+  int iterations = 0;    // iterations done so far
+  double energy = 0;     // the energy after the last of them (the first guess's before the first)
+};
+
 struct BindStats {
   double total_ms = 0;
   double mesh_ms = 0;      // checks, weights, components, vertex order, Laplacian assembly
   double ordering_ms = 0;  // fill-reducing ordering (AMD) and symmetric permutation
   double factor_ms = 0;    // numeric Cholesky factorization
 };
+
+class SolveWorker;
 
 class Solver {
  public:
@@ -76,6 +84,15 @@ class Solver {
   // Replace the warm-start state (e.g. to resume a bake from a stored frame).
   void set_positions(const Eigen::Ref<const Points>& positions);
 
+  // For a solve() running on another thread (thread-safe): while set, solve() returns after the
+  // iteration in progress, as when its time budget runs out (stats.converged false). solve() never
+  // clears it.
+  void set_stop_requested(bool stop);
+  // The solve() in progress (or the last one): iterations done and the latest energy; thread-safe.
+  SolveProgress progress() const;
+  // True while a SolveWorker owns this solver: nothing else may call it then.
+  bool busy() const;
+
   // Settings that need no re-bind (iterations, tolerance, init, threads, anderson).
   // Changing `weights` here throws at the next solve(): bind again instead.
   Options& options();
@@ -99,8 +116,15 @@ class Solver {
   Points energy_gradient(const Eigen::Ref<const Points>& positions) const;
 
  private:
+  // For SolveWorker: take the solver (false when another worker has it), give it back.
+  bool claim();
+  void release();
+
   struct Impl;
+  struct Shared;   // what other threads may read or set: the stop request, the progress, busy
   std::unique_ptr<Impl> impl_;
+  std::unique_ptr<Shared> shared_;
+  friend class SolveWorker;
 };
 
 }  // namespace arap

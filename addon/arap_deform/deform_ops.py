@@ -1,0 +1,142 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The Deform operator: one solve from the rest shape (engine.DeformJob).
+
+From a script or the redo panel it solves in execute(). From the panel, a
+key or F3 it is modal: the solve runs on the worker's thread, the viewport
+shows its progress, the view can still be orbited and zoomed, and Esc stops
+it with the mesh untouched (the result is written only once the solve is
+done, as one undo step).
+"""
+
+import bpy
+from bpy.props import EnumProperty, FloatProperty, IntProperty
+
+from . import engine, errors, properties, sessions, status_overlay
+
+# Input that still reaches the viewport while Deform runs (looking around); the rest waits.
+NAVIGATION = {'MIDDLEMOUSE', 'WHEELUPMOUSE', 'WHEELDOWNMOUSE', 'MOUSEMOVE', 'INBETWEEN_MOUSEMOVE',
+              'TRACKPADPAN', 'TRACKPADZOOM', 'MOUSEROTATE', 'NDOF_MOTION'}
+POLL_S = 1.0 / 30.0   # how often the modal looks at the worker
+
+
+class ARAP_OT_deform(bpy.types.Operator):
+    """Pose the mesh: move the handles' vertices with their empties and solve ARAP (Object Mode)"""
+    bl_idname = "object.arap_deform"
+    bl_label = "ARAP Deform"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    # The redo panel (F9) shows the values the solve used: _job() fills
+    # any not given from the object's settings (properties.py has the tooltips).
+    iterations: IntProperty(name="Iterations", default=100, min=1, max=1000,
+                            description="Most solver rounds; it stops earlier once the pose has settled")
+    tolerance: FloatProperty(name="Tolerance", default=1e-6, min=0.0, max=1.0, precision=7, step=0.0001,
+                             description="Stop when a round improves the pose by less than this fraction")
+    init: EnumProperty(name="Start From", items=properties.INIT_ITEMS, default='NAIVE',
+                       description="The shape the solver starts from")
+
+    running = None   # the modal Deform's job while it runs (what the viewport's lines show)
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._job = None
+        self._timer = None
+        self._shown = None
+
+    def _start_job(self, context):
+        obj = sessions.target_mesh(context)
+        if obj is not None and sessions.session_for(obj) is not None:
+            raise errors.SetupError("Live is running on '%s': apply or cancel it first" % obj.name)
+        source = 'SETTINGS'
+        if obj is not None:
+            for name in ("iterations", "tolerance", "init"):
+                if not self.properties.is_property_set(name):
+                    setattr(self, name, getattr(obj.arap, name))
+            # A cap other than the object's setting was set in the redo panel (or by the caller).
+            if self.iterations != obj.arap.iterations:
+                source = 'OPERATOR'
+        return engine.DeformJob(obj, context.scene, self.iterations, self.tolerance, self.init,
+                                iterations_from=source)
+
+    def _report_result(self, result):
+        for w in result.warnings:
+            self.report({'WARNING'}, w)
+        self.report({'INFO'}, "ARAP: %d iterations, energy %.6g, %.1f ms (bind %.1f ms)"
+                    % (result.iterations, result.energy, result.solve_ms, result.bind_ms))
+
+    def execute(self, context):
+        try:
+            result = self._start_job(context).run()
+        except Exception as exc:  # noqa: BLE001 - report_error re-raises what is not a user error
+            return errors.report_error(self, exc)
+        self._report_result(result)
+        return {'FINISHED'}
+
+    def invoke(self, context, event):
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        try:
+            self._job = self._start_job(context)
+            self._job.start()
+        except Exception as exc:  # noqa: BLE001
+            if self._job is not None:
+                self._job.stop()
+            return errors.report_error(self, exc)
+        ARAP_OT_deform.running = self._job
+        status_overlay.add(deform_status_lines)
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(POLL_S, window=context.window)
+        wm.modal_handler_add(self)
+        status_overlay.redraw(context)
+        return {'RUNNING_MODAL'}
+
+    def modal(self, context, event):
+        job = self._job
+        if event.type == 'ESC' and event.value == 'PRESS':
+            self._end(context)
+            self.report({'INFO'}, "ARAP Deform stopped: '%s' is unchanged" % job.obj.name)
+            return {'CANCELLED'}
+        if event.type == 'TIMER':
+            try:
+                result = job.poll()
+            except Exception as exc:  # noqa: BLE001
+                self._end(context)
+                return errors.report_error(self, exc)
+            if result is not None:
+                self._end(context)
+                self._report_result(result)
+                return {'FINISHED'}
+            shown = deform_status_lines()
+            if shown != self._shown:
+                self._shown = shown
+                status_overlay.redraw(context)
+            return {'RUNNING_MODAL'}
+        return {'PASS_THROUGH'} if event.type in NAVIGATION else {'RUNNING_MODAL'}
+
+    def cancel(self, context):
+        # Blender calls this when the modal is aborted (file load, window closed).
+        self._end(context)
+
+    def _end(self, context):
+        if self._job is not None:
+            self._job.stop()
+        if self._timer is not None:
+            context.window_manager.event_timer_remove(self._timer)
+            self._timer = None
+        ARAP_OT_deform.running = None
+        status_overlay.remove(deform_status_lines)
+        status_overlay.redraw(context)
+
+
+def deform_status_lines():
+    """What the viewport shows while a modal Deform runs."""
+    job = ARAP_OT_deform.running
+    if job is None:
+        return []
+    iterations, energy = job.progress
+    return ["ARAP Deform on '%s': %d of at most %d iterations, energy %.5g"
+            % (job.obj.name, iterations, job.max_iterations, energy),
+            "Esc: stop (the mesh stays as it was)"]
+
+
+classes = (ARAP_OT_deform,)
+register, unregister = bpy.utils.register_classes_factory(classes)

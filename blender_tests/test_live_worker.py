@@ -1,0 +1,223 @@
+# Live and Deform as the viewport runs them: the solves on the worker's native
+# thread (LiveSession.update(), engine.DeformJob.start()/poll()), Blender's
+# thread only reading the Empties and writing finished poses.
+import time
+import unittest
+
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+import arap_test_utils as U
+from arap_deform import api, engine, live_ops, native_loader, sessions
+
+GIVE_UP_S = 120.0
+
+
+def move(empty, dx=0.0, dz=0.0):
+    empty.matrix_world = Matrix.Translation((dx, 0.0, dz)) @ empty.matrix_world
+    bpy.context.view_layer.update()
+
+
+def set_coords(obj, flat):
+    obj.data.vertices.foreach_set("co", flat)
+    obj.data.update()
+
+
+def update_until_settled(session):
+    """What the modal's timer does: update() until Live has settled; the updates that wrote a pose."""
+    written = []
+    end = time.monotonic() + GIVE_UP_S
+    while not session.settled:
+        stats = session.update()
+        if stats is not None:
+            written.append(stats)
+        if time.monotonic() > end:
+            raise AssertionError("Live never settled")
+        time.sleep(0.002)
+    return written
+
+
+class LiveOnTheWorker(unittest.TestCase):
+    def setUp(self):
+        U.clear_scene()
+        self.obj, self.empty, self.fixed, self.top = U.bar_with_handle()
+
+    def tearDown(self):
+        for s in list(sessions._sessions):
+            s.cancel()
+
+    def test_settles_in_the_pose_of_a_one_shot_solve(self):
+        rest = U.coords(self.obj).copy()
+        s = api.start_session(self.obj, bpy.context.scene)
+        move(self.empty, dx=0.5, dz=-0.3)
+        written = update_until_settled(s)
+        self.assertTrue(written, "no pose was ever shown")
+        self.assertIsNone(s.update())           # asleep: nothing more is written
+        live = U.coords(self.obj).copy()
+        moved = live[self.top] - rest[self.top]
+        np.testing.assert_allclose(moved, np.tile((0.5, 0.0, -0.3), (len(self.top), 1)), atol=1e-5)
+        s.cancel()
+        move(self.empty, dx=0.5, dz=-0.3)
+        api.deform(self.obj, tolerance=1e-9)
+        np.testing.assert_allclose(live, U.coords(self.obj), atol=2e-3)
+
+    def test_the_solve_runs_between_updates_not_in_them(self):
+        # A solve that never settles (tolerance 0) on a finer bar: while the caller sleeps,
+        # the worker goes on iterating; the solver itself is the worker's meanwhile.
+        U.clear_scene()
+        self.obj, self.empty, _f, _t = U.bar_with_handle(vertices=64, cuts=40)
+        self.obj.arap.tolerance = 0.0
+        rest = U.raw_coords(self.obj).copy()
+        s = api.start_session(self.obj, bpy.context.scene)
+        move(self.empty, dx=0.5)
+        s.update()
+        first = s.worker.progress[0]
+        end = time.monotonic() + GIVE_UP_S
+        while s.worker.progress[0] <= first + 2 and time.monotonic() < end:
+            time.sleep(0.01)
+        self.assertGreater(s.worker.progress[0], first + 2)
+        with self.assertRaises(native_loader.native().ArapError) as cm:
+            s.solver.solve(s.problem.targets)
+        self.assertEqual(cm.exception.code, "solver busy")
+        s.cancel()
+        self.assertFalse(s.solver.busy)
+        self.assertTrue(np.array_equal(U.raw_coords(self.obj), rest))
+
+    def test_cancel_while_solving_restores_mesh_and_empties_bit_for_bit(self):
+        before = U.raw_coords(self.obj).copy()
+        channels = U.transform_channels(self.empty)
+        self.obj.arap.tolerance = 0.0
+        s = api.start_session(self.obj, bpy.context.scene)
+        for k in range(5):
+            move(self.empty, dx=0.1)
+            s.update()
+            time.sleep(0.01)
+        s.update()
+        s.cancel()
+        self.assertTrue(np.array_equal(U.raw_coords(self.obj), before))
+        self.assertEqual(U.transform_channels(self.empty), channels)
+        self.assertIsNone(s.worker)
+        self.assertEqual(live_ops.live_status_lines(), [])
+
+    def test_apply_keeps_the_newest_finished_pose(self):
+        s = api.start_session(self.obj, bpy.context.scene)
+        move(self.empty, dz=0.5)
+        update_until_settled(s)
+        settled = s.positions().copy()
+        s.finish()
+        np.testing.assert_array_equal(U.raw_coords(self.obj), settled)
+        self.assertIsNone(sessions.session_for(self.obj))
+        self.assertIn("arap_rest", self.obj.data.attributes)
+
+    def test_the_status_is_that_of_the_pose_shown(self):
+        s = api.start_session(self.obj, bpy.context.scene)
+        move(self.empty, dx=0.4)
+        written = update_until_settled(s)
+        last = written[-1]
+        self.assertEqual(s.last, last)
+        self.assertLessEqual(last.main_thread_ms, last.read_ms + last.write_ms + 1.0)
+        self.assertIn("settled", live_ops.live_status_lines()[0])
+        s.stop_worker()   # the solver is the caller's again: measure the shown pose's energy
+        shown = s.solver.energy(U.coords(self.obj))
+        self.assertAlmostEqual(last.energy, shown, delta=1e-4 * shown)
+
+    def test_undo_reattach_and_a_deleted_empty_with_the_worker(self):
+        s = api.start_session(self.obj, bpy.context.scene)
+        move(self.empty, dx=0.3)
+        update_until_settled(s)
+        bpy.data.objects.remove(self.empty)
+        with self.assertRaises(api.SessionError) as cm:
+            s.update()
+        self.assertEqual(cm.exception.kind, 'EMPTY')
+        s.cancel()
+        self.assertFalse(s.solver.busy)
+
+
+class DeformOnTheWorker(unittest.TestCase):
+    def setUp(self):
+        U.clear_scene()
+        self.obj, self.empty, self.fixed, self.top = U.bar_with_handle()
+        move(self.empty, dx=0.6, dz=-0.2)
+
+    def poll_until_done(self, job):
+        end = time.monotonic() + GIVE_UP_S
+        while True:
+            result = job.poll()
+            if result is not None:
+                return result
+            self.assertLess(time.monotonic(), end, "Deform never finished")
+            time.sleep(0.002)
+
+    def test_same_result_as_deform_and_stop_leaves_the_mesh_untouched(self):
+        before = U.raw_coords(self.obj).copy()
+        here = api.deform(self.obj)
+        posed = U.raw_coords(self.obj).copy()
+        set_coords(self.obj, before)
+        job = engine.DeformJob(self.obj, bpy.context.scene)
+        job.start()
+        result = self.poll_until_done(job)
+        np.testing.assert_array_equal(U.raw_coords(self.obj), posed)
+        self.assertEqual((result.iterations, result.energy), (here.iterations, here.energy))
+        # Stopped: nothing written, the solver usable again.
+        set_coords(self.obj, before)
+        self.obj.arap.tolerance = 0.0
+        job = engine.DeformJob(self.obj, bpy.context.scene, iterations=1000)
+        job.start()
+        job.stop()
+        self.assertTrue(np.array_equal(U.raw_coords(self.obj), before))
+        self.assertFalse(job.solver.busy)
+        self.assertEqual(job.progress, (0, 0.0))
+
+    def test_progress_counts_up_while_it_solves(self):
+        # The textbook method with tolerance 0 on a finer bar runs its whole cap (thousands of
+        # iterations): the progress the viewport shows climbs while this thread only looks.
+        U.clear_scene()
+        self.obj, self.empty, _f, _t = U.bar_with_handle(vertices=64, cuts=40)
+        move(self.empty, dx=0.6)
+        self.obj.arap.method, self.obj.arap.tolerance = 'LOCAL_GLOBAL', 0.0
+        job = engine.DeformJob(self.obj, bpy.context.scene, iterations=10000)
+        job.start()
+        seen = set()
+        end = time.monotonic() + GIVE_UP_S
+        while len(seen) < 3 and time.monotonic() < end:
+            seen.add(job.progress[0])
+            time.sleep(0.001)
+        job.stop()
+        self.assertGreaterEqual(len(seen), 3)
+        self.assertLess(max(seen), 10000)
+
+    def test_the_operator_outside_the_viewport_solves_at_once(self):
+        # --background has no event loop: invoke falls back to execute, one undo step as before.
+        rest = U.coords(self.obj).copy()
+        bpy.context.view_layer.objects.active = self.obj
+        self.assertEqual(bpy.ops.object.arap_deform('INVOKE_DEFAULT'), {'FINISHED'})
+        moved = U.coords(self.obj)[self.top] - rest[self.top]
+        np.testing.assert_allclose(moved, np.tile((0.6, 0.0, -0.2), (len(self.top), 1)), atol=1e-5)
+
+
+class UnsettledWarnings(unittest.TestCase):
+    """The warning for a pose that did not settle names the setting the user can raise."""
+
+    def setUp(self):
+        U.clear_scene()
+        self.obj, self.empty, _f, _t = U.bar_with_handle()
+        move(self.empty, dx=0.8)
+        self.obj.arap.tolerance = 1e-12
+
+    def test_from_the_object_setting(self):
+        self.obj.arap.iterations = 2
+        self.assertIn("in the Solver panel", " ".join(api.deform(self.obj).warnings))
+
+    def test_from_an_argument(self):
+        self.assertIn("iterations=", " ".join(api.deform(self.obj, iterations=2).warnings))
+
+    def test_from_the_redo_panel(self):
+        bpy.context.view_layer.objects.active = self.obj
+        bpy.ops.object.arap_deform(iterations=2)
+        result = api.last_result(self.obj)
+        self.assertIn("Adjust Last Operation panel", " ".join(result.warnings))
+
+
+if __name__ == "__main__":
+    unittest.main()

@@ -1,0 +1,77 @@
+// A Solver on a thread of its own, so that a caller with a user interface
+// (Blender's main thread: Live, Deform) never waits for a solve.
+#pragma once
+
+#include <condition_variable>
+#include <exception>
+#include <functional>
+#include <mutex>
+#include <thread>
+
+#include "arap/solver.h"
+
+namespace arap {
+
+// post() hands over the newest targets and returns at once. The worker solves
+// them with the solver's options, solve after solve while one ends short of
+// the tolerance (its time budget or iteration cap ran out), until the pose has
+// settled or `max_iterations` iterations went into these targets; then it
+// sleeps until the next post(). New targets stop the solve in progress after
+// its current iteration (Solver::set_stop_requested) and the next solve starts
+// from where it stopped (a warm start, when the solver's options ask for one).
+// take() copies out the newest finished solve.
+//
+// While a SolveWorker exists its solver is busy(): nothing else may call it.
+class SolveWorker {
+ public:
+  struct Result {
+    SolveStats stats;          // of the newest finished solve
+    long serial = 0;           // how many solves the worker has finished so far
+    int iterations = 0;        // spent on the current targets, all solves together
+    bool settled = false;      // converged, or max_iterations spent: nothing more to do until post()
+  };
+
+  // Throws arap::Error(Busy) when another SolveWorker owns `solver`, (NotBound) before bind().
+  SolveWorker(Solver& solver, int max_iterations);
+  ~SolveWorker();  // stop()
+  SolveWorker(const SolveWorker&) = delete;
+  SolveWorker& operator=(const SolveWorker&) = delete;
+
+  // targets: #constrained by 3, as Solver::solve() takes them (checked here: rows and finiteness).
+  void post(const Eigen::Ref<const Points>& targets);
+  // When a solve finished since the last take(): fills `result`, calls `read(positions)` with the
+  // solution (#V by 3, valid only during the call) and returns true. A solve that threw is
+  // rethrown here, once; the worker then waits for new targets.
+  bool take(Result& result, const std::function<void(const Points&)>& read);
+  // The solve in progress (iterations, energy).
+  SolveProgress progress() const;
+  int vertex_count() const { return solver_.vertex_count(); }
+  // Nothing to do: every posted target set has settled (or failed), nothing new was posted.
+  bool settled() const;
+  // Ends the solve in progress after its current iteration and joins the thread; the solver is
+  // free again. post() after stop() throws.
+  void stop();
+
+ private:
+  void run();
+
+  Solver& solver_;
+  const int max_iterations_;
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  std::thread thread_;
+  // Guarded by mutex_:
+  Points pending_;             // the newest targets, not yet taken up by the worker
+  bool fresh_ = false;         // pending_ holds targets the worker has not started on
+  bool working_ = false;       // the current targets have not settled yet
+  bool quit_ = false;
+  int spent_ = 0;              // iterations on the current targets
+  Points published_;           // the newest finished solution
+  Result result_;
+  bool untaken_ = false;       // result_ not yet take()n
+  std::exception_ptr error_;
+  // The worker thread's own:
+  Points targets_;
+};
+
+}  // namespace arap

@@ -1,0 +1,110 @@
+#include "arap/solve_worker.h"
+
+#include <string>
+#include <utility>
+
+namespace arap {
+
+SolveWorker::SolveWorker(Solver& solver, int max_iterations) : solver_(solver), max_iterations_(max_iterations) {
+  if (!solver.is_bound()) throw Error(ErrorCode::NotBound, "SolveWorker: the solver is not bound");
+  if (max_iterations < 1) throw Error(ErrorCode::InvalidInput, "SolveWorker: max_iterations must be at least 1");
+  if (!solver.claim())
+    throw Error(ErrorCode::Busy, "the solver is already in use by another SolveWorker");
+  solver.set_stop_requested(false);
+  try {
+    thread_ = std::thread([this] { run(); });
+  } catch (...) {
+    solver.release();
+    throw;
+  }
+}
+
+SolveWorker::~SolveWorker() { stop(); }
+
+void SolveWorker::post(const Eigen::Ref<const Points>& targets) {
+  const int expected_rows = static_cast<int>(solver_.constrained().size());
+  if (targets.rows() != expected_rows)
+    throw Error(ErrorCode::InvalidInput, "expected " + std::to_string(expected_rows) +
+                                             " target positions (one per constrained vertex), got " +
+                                             std::to_string(targets.rows()));
+  if (!targets.allFinite()) throw Error(ErrorCode::NonFinite, "a target position is not finite");
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (quit_) throw Error(ErrorCode::InvalidInput, "SolveWorker: post() after stop()");
+  pending_ = targets;
+  fresh_ = true;
+  solver_.set_stop_requested(true);  // the solve in progress (old targets) ends after this iteration
+  wake_.notify_one();
+}
+
+bool SolveWorker::take(Result& result, const std::function<void(const Points&)>& read) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (error_) {
+    std::exception_ptr error = std::exchange(error_, nullptr);
+    std::rethrow_exception(error);
+  }
+  if (!untaken_) return false;
+  untaken_ = false;
+  result = result_;
+  read(published_);
+  return true;
+}
+
+SolveProgress SolveWorker::progress() const { return solver_.progress(); }
+
+bool SolveWorker::settled() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return !fresh_ && !working_;
+}
+
+void SolveWorker::stop() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (quit_ && !thread_.joinable()) return;
+    quit_ = true;
+    solver_.set_stop_requested(true);
+    wake_.notify_one();
+  }
+  if (thread_.joinable()) thread_.join();
+  solver_.set_stop_requested(false);
+  solver_.release();
+}
+
+void SolveWorker::run() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  for (;;) {
+    wake_.wait(lock, [this] { return quit_ || fresh_ || working_; });
+    if (quit_) return;
+    if (fresh_) {
+      targets_ = pending_;
+      fresh_ = false;
+      spent_ = 0;
+    }
+    working_ = true;
+    solver_.set_stop_requested(false);  // under the lock: a post() from now on stops this solve
+    lock.unlock();
+    SolveStats stats;
+    std::exception_ptr error;
+    try {
+      stats = solver_.solve(targets_);
+    } catch (...) {
+      error = std::current_exception();
+    }
+    lock.lock();
+    if (error) {
+      error_ = error;
+      working_ = false;
+      continue;
+    }
+    spent_ += stats.iterations;
+    // A solve with no iteration to run would never get further: settled too.
+    working_ = !(stats.converged || spent_ >= max_iterations_ || stats.iterations == 0);
+    published_ = solver_.positions();
+    result_.stats = std::move(stats);
+    result_.serial += 1;
+    result_.iterations = spent_;
+    result_.settled = !working_ && !fresh_;
+    untaken_ = true;
+  }
+}
+
+}  // namespace arap
