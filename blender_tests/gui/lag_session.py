@@ -9,6 +9,7 @@
 #   updates  every Live update that changed the mesh: start and main-thread ms
 #            (LiveSession.update, or step on versions that solved on the main thread)
 #   draws    every viewport redraw: time, the Empty's x, Live settled or not
+#   moves    every depsgraph update that moved the Empty (G applies each pointer event there): time, x
 # and talks to the driver through <out>/state.json and cmd_* files, as gui_session.py does.
 import json
 import os
@@ -26,7 +27,7 @@ import session_files  # noqa: E402
 from tube_scene import add_empty, add_group, clear_scene, load_addon, make_tube  # noqa: E402
 
 STATE = {"ready": False, "errors": [], "tick": 0}
-RECORD = {"updates": [], "draws": []}
+RECORD = {"updates": [], "draws": [], "moves": []}
 
 
 def instrument(live):
@@ -67,6 +68,7 @@ def setup():
     view.view_distance = 2.2 * h
     view.view_rotation = (0.7071, 0.7071, 0.0, 0.0)   # looking along +y: x right, z up
     bpy.types.SpaceView3D.draw_handler_add(on_draw, (), 'WINDOW', 'POST_PIXEL')
+    bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
     STATE["vertices"] = len(obj.data.vertices)
     STATE["addon"] = os.path.dirname(arap_deform.__file__)
     STATE["ready"] = True
@@ -84,6 +86,15 @@ def on_draw():
     s = session()
     RECORD["draws"].append([time.monotonic(), empty.matrix_world.translation.x,
                             bool(s is not None and s.settled)])
+
+
+def on_depsgraph_update(_scene, _depsgraph=None):
+    empty = bpy.data.objects.get("Handle")
+    if empty is None or not STATE["ready"]:
+        return
+    x = empty.matrix_world.translation.x
+    if not RECORD["moves"] or RECORD["moves"][-1][1] != x:
+        RECORD["moves"].append([time.monotonic(), x])
 
 
 def start_live():

@@ -14,6 +14,7 @@
 #   update ms   the main thread's time per Live update that changed the mesh (median, 90th pct, max)
 #   lag ms      per redraw during the drag: its time minus when the pointer had reached the place
 #               the drawn Empty shows (the pointer-to-Empty ratio taken from the final positions)
+#   move lag ms the same per move of the Empty (G applies the pointer's events to it between redraws)
 #   catch-up ms from the pointer's last move to the first redraw showing the Empty within 1 % of its end
 #   fps         redraws per second during the drag
 #   settle s    from the click to Live's "settled"
@@ -92,8 +93,13 @@ def measure(blender, addon_dir, vertices, out):
     draws = record["draws"]
     x_end = settled["empty_x"]
     ratio = (x_end - x0) / pointer[-1][1]
-    lags = [t - when_pointer_reached(pointer, (x - x0) / ratio) for t, x, _ in draws
-            if pointer[1][0] <= t <= last_move and x - x0 > 0.02 * (x_end - x0)]
+    def lags_of(samples):
+        # During the drag, and after it while the Empty is still on its way (then it lags the last move).
+        return [s[0] - when_pointer_reached(pointer, (s[1] - x0) / ratio) for s in samples
+                if s[0] >= pointer[1][0] and 0.02 < (s[1] - x0) / (x_end - x0) and
+                (s[0] <= last_move or (s[1] - x0) / (x_end - x0) < 0.99)]
+
+    lags, move_lags = lags_of(draws), lags_of(record["moves"])
     caught = next((t for t, x, _ in draws if t >= last_move and abs(x - x_end) <= 0.01 * abs(x_end - x0)), None)
     in_drag = [t for t, _, _ in draws if pointer[0][0] <= t <= last_move]
     updates = [ms for t, ms, _ in record["updates"] if t >= pointer[0][0]]
@@ -103,6 +109,7 @@ def measure(blender, addon_dir, vertices, out):
             "updates": len(updates),
             "lag_ms_median": 1e3 * statistics.median(lags) if lags else float("nan"),
             "lag_ms_p90": 1e3 * pct(lags, 0.9),
+            "move_lag_ms_median": 1e3 * statistics.median(move_lags) if move_lags else float("nan"),
             "catch_up_ms": 1e3 * (caught - last_move) if caught is not None else float("nan"),
             "fps": len(in_drag) / max(1e-9, last_move - pointer[0][0]),
             "settle_s": settle_s}
@@ -124,12 +131,13 @@ def main():
     os.makedirs(args.out, exist_ok=True)
     with open(os.path.join(args.out, args.label + ".json"), "w") as f:
         json.dump(rows, f, indent=1)
-    print("| vertices | update ms median / p90 / max | lag ms median / p90 | catch-up ms | fps | settle s |")
-    print("|---:|---:|---:|---:|---:|---:|")
+    print("| vertices | update ms median / p90 / max | lag ms median / p90 | move lag ms | catch-up ms | fps "
+          "| settle s |")
+    print("|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
-        print("| %d | %.1f / %.1f / %.1f | %.0f / %.0f | %.0f | %.1f | %.1f |"
+        print("| %d | %.1f / %.1f / %.1f | %.0f / %.0f | %.0f | %.0f | %.1f | %.1f |"
               % (r["vertices"], r["update_ms_median"], r["update_ms_p90"], r["update_ms_max"], r["lag_ms_median"],
-                 r["lag_ms_p90"], r["catch_up_ms"], r["fps"], r["settle_s"]))
+                 r["lag_ms_p90"], r["move_lag_ms_median"], r["catch_up_ms"], r["fps"], r["settle_s"]))
 
 
 if __name__ == "__main__":
