@@ -115,6 +115,32 @@ def _assign(obj, group, indices, replace):
     bmesh.update_edit_mesh(obj.data)
 
 
+FIXED_GROUP = "ARAP_Fixed"
+HANDLE_GROUP = "ARAP_Handle_"
+
+
+def _fixed_group(obj):
+    """The group Set Fixed writes: the one the settings name, else the ARAP_Fixed group
+    made before (also when the settings lost it), else a new ARAP_Fixed."""
+    for name in (obj.arap.fixed_group, FIXED_GROUP):
+        group = obj.vertex_groups.get(name) if name else None
+        if group is not None:
+            return group
+    return obj.vertex_groups.new(name=FIXED_GROUP)
+
+
+def _new_handle_group_name(obj):
+    """ARAP_Handle_<n>, n one more than the highest number a vertex group, a handle or a
+    handle Empty (<object>_ARAP_Handle_<n>) of `obj` uses: a removed handle's number is
+    not given again while its group or Empty is kept."""
+    prefix = obj.name + "_"
+    names = [g.name for g in obj.vertex_groups] + [h.group for h in obj.arap.handles]
+    names += [o.name[len(prefix):] for o in bpy.data.objects if o.name.startswith(prefix)]
+    numbers = [int(n[len(HANDLE_GROUP):]) for n in names
+               if n.startswith(HANDLE_GROUP) and n[len(HANDLE_GROUP):].isdigit()]
+    return HANDLE_GROUP + str(max(numbers, default=0) + 1)
+
+
 NOTHING_SELECTED = "No vertex is selected: select some in Edit Mode (Tab), then press the button again"
 
 
@@ -124,8 +150,9 @@ class ARAP_OT_add_handle_from_selection(bpy.types.Operator):
     bl_label = "Add Handle from Selection"
     bl_options = {'REGISTER', 'UNDO'}
 
-    group_name: StringProperty(name="Group Name", default="Handle",
-                               description="Name of the new vertex group (made unique)")
+    group_name: StringProperty(name="Group Name", default="",
+                               description="Name of the new vertex group (made unique); empty: ARAP_Handle_1, "
+                                           "ARAP_Handle_2, ... (the next number on this object)")
 
     @classmethod
     def poll(cls, context):
@@ -137,10 +164,10 @@ class ARAP_OT_add_handle_from_selection(bpy.types.Operator):
         if not indices:
             self.report({'ERROR'}, NOTHING_SELECTED)
             return {'CANCELLED'}
-        group = obj.vertex_groups.new(name=self.group_name)
+        group = obj.vertex_groups.new(name=self.group_name or _new_handle_group_name(obj))
         _assign(obj, group, indices, replace=False)
-        # The group's name first: what tells handles apart when the list cuts names short.
-        empty = bpy.data.objects.new("%s_%s" % (group.name, obj.name), None)
+        # Named after its object and group: Bar_ARAP_Handle_1 drives group ARAP_Handle_1 of Bar.
+        empty = bpy.data.objects.new("%s_%s" % (obj.name, group.name), None)
         empty.empty_display_type = 'SPHERE'
         empty.empty_display_size = max(0.05, 0.1 * max(obj.dimensions))
         collection = obj.users_collection[0] if obj.users_collection else context.scene.collection
@@ -168,10 +195,7 @@ class ARAP_OT_set_fixed_from_selection(bpy.types.Operator):
         if not indices:
             self.report({'ERROR'}, NOTHING_SELECTED)
             return {'CANCELLED'}
-        name = obj.arap.fixed_group
-        group = obj.vertex_groups.get(name) if name else None
-        if group is None:
-            group = obj.vertex_groups.new(name="ARAP_Fixed")
+        group = _fixed_group(obj)
         _assign(obj, group, indices, replace=True)
         obj.arap.fixed_group = group.name
         self.report({'INFO'}, "Fixed group '%s': %d vertices" % (group.name, len(indices)))
