@@ -115,6 +115,26 @@ def _assign(obj, group, indices, replace):
     bmesh.update_edit_mesh(obj.data)
 
 
+def _record_settings_in_undo(obj):
+    """Make the undo step of a set-up operator run in Edit Mode restore the object's
+    ARAP settings too, as it does in Object Mode.
+
+    In Edit Mode the operator's undo step is an edit-mesh step: it restores the mesh
+    (its weights; its group names in Blender 5.2, not in 3.4 or 4.3) and nothing of the
+    object (obj.arap, new Empties). Those are in Blender's global undo steps only, and
+    Blender writes one beside an edit-mesh step only when a data-block was added or
+    removed since the last (undo_system.cc: "MemFile Internal (pre)", hidden from Undo
+    History). Without it the settings changed here are in no undo step, and the next
+    undo that loads an older global step drops them: Set Fixed, select, Add Handle,
+    Ctrl+Z lost the Fixed setting (the new Empty had made Blender write a global step).
+    Adding and removing a scratch data-block asks for that global step; written after
+    this operator, it holds the settings and the Empties. (Leaving Edit Mode for the
+    work and going back does not: the step is still an edit-mesh step.)
+    """
+    if obj.mode == 'EDIT':
+        bpy.data.texts.remove(bpy.data.texts.new(".arap_undo"))
+
+
 FIXED_GROUP = "ARAP_Fixed"
 HANDLE_GROUP = "ARAP_Handle_"
 
@@ -175,6 +195,7 @@ class ARAP_OT_add_handle_from_selection(bpy.types.Operator):
         # Set matrix_world (not location) so it is valid before the next depsgraph update.
         empty.matrix_world = Matrix.Translation(obj.matrix_world @ centroid)
         api.add_handle(obj, group.name, empty)
+        _record_settings_in_undo(obj)
         self.report({'INFO'}, "Handle '%s': %d vertices, empty '%s'" % (group.name, len(indices), empty.name))
         return {'FINISHED'}
 
@@ -198,6 +219,7 @@ class ARAP_OT_set_fixed_from_selection(bpy.types.Operator):
         group = _fixed_group(obj)
         _assign(obj, group, indices, replace=True)
         obj.arap.fixed_group = group.name
+        _record_settings_in_undo(obj)
         self.report({'INFO'}, "Fixed group '%s': %d vertices" % (group.name, len(indices)))
         return {'FINISHED'}
 
@@ -213,9 +235,10 @@ class ARAP_OT_handle_add(bpy.types.Operator):
         return sessions.target_mesh(context) is not None
 
     def execute(self, context):
-        s = sessions.target_mesh(context).arap
-        s.handles.add()
-        s.active_handle = len(s.handles) - 1
+        obj = sessions.target_mesh(context)
+        obj.arap.handles.add()
+        obj.arap.active_handle = len(obj.arap.handles) - 1
+        _record_settings_in_undo(obj)
         return {'FINISHED'}
 
 
@@ -233,6 +256,7 @@ class ARAP_OT_handle_remove(bpy.types.Operator):
     def execute(self, context):
         obj = sessions.target_mesh(context)
         api.remove_handle(obj, min(obj.arap.active_handle, len(obj.arap.handles) - 1))
+        _record_settings_in_undo(obj)
         return {'FINISHED'}
 
 
