@@ -121,6 +121,78 @@ class HandlesFromSelection(unittest.TestCase):
         self.assertEqual(len(self.obj.arap.handles), 0)
 
 
+class SetUpNames(unittest.TestCase):
+    """Names say which object and which handle: group ARAP_Handle_<n> (the next number
+    on the object), Empty <object>_ARAP_Handle_<n>; the fixed group is ARAP_Fixed."""
+
+    def setUp(self):
+        U.clear_scene()
+        self.obj = U.add_cylinder()
+        bpy.ops.object.mode_set(mode='EDIT')
+
+    def tearDown(self):
+        if self.obj.mode == 'EDIT':
+            bpy.ops.object.mode_set(mode='OBJECT')
+
+    def add_handle(self, predicate, **props):
+        select_in_edit_mode(self.obj, predicate)
+        self.assertEqual(bpy.ops.object.arap_add_handle_from_selection(**props), {'FINISHED'})
+        h = self.obj.arap.handles[-1]
+        return h.group, h.empty.name
+
+    def test_handles_are_numbered_per_object(self):
+        self.assertEqual(self.add_handle(lambda co: co.z > 1.5), ("ARAP_Handle_1", "Bar_ARAP_Handle_1"))
+        self.assertEqual(self.add_handle(lambda co: co.z < -1.5), ("ARAP_Handle_2", "Bar_ARAP_Handle_2"))
+        # Another object starts at 1 and its Empties say whose they are.
+        bpy.ops.object.mode_set(mode='OBJECT')
+        self.obj = U.add_cylinder(name="Arm")
+        bpy.ops.object.mode_set(mode='EDIT')
+        self.assertEqual(self.add_handle(lambda co: co.z > 1.5), ("ARAP_Handle_1", "Arm_ARAP_Handle_1"))
+
+    def test_a_removed_handles_number_is_not_given_again(self):
+        self.add_handle(lambda co: co.z > 1.5)
+        self.add_handle(lambda co: co.z < -1.5)
+        bpy.ops.object.arap_handle_remove()   # handle 2; its group and Empty are kept
+        self.assertEqual(self.add_handle(lambda co: abs(co.z) < 0.3), ("ARAP_Handle_3", "Bar_ARAP_Handle_3"))
+        # Without its group, the kept Empty still holds the number.
+        bpy.ops.object.mode_set(mode='OBJECT')
+        for name in ("ARAP_Handle_2", "ARAP_Handle_3"):
+            self.obj.vertex_groups.remove(self.obj.vertex_groups[name])
+        api.remove_handle(self.obj, 1)
+        for v in self.obj.data.vertices:
+            v.select = v.co.z > 1.5
+        self.assertEqual(bpy.ops.object.arap_add_handle_from_selection(), {'FINISHED'})
+        self.assertEqual(self.obj.arap.handles[-1].group, "ARAP_Handle_4")
+
+    def test_a_given_group_name_is_kept(self):
+        self.assertEqual(self.add_handle(lambda co: co.z > 1.5, group_name="Head"), ("Head", "Bar_Head"))
+        self.assertEqual(self.add_handle(lambda co: co.z < -1.5), ("ARAP_Handle_1", "Bar_ARAP_Handle_1"))
+
+    def test_set_fixed_takes_the_fixed_group_the_settings_lost(self):
+        select_in_edit_mode(self.obj, lambda co: co.z < -1.5)
+        bpy.ops.object.arap_set_fixed_from_selection()
+        self.obj.arap.fixed_group = ""
+        picked = select_in_edit_mode(self.obj, lambda co: co.z < -1.9)
+        bpy.ops.object.arap_set_fixed_from_selection()
+        bpy.ops.object.mode_set(mode='OBJECT')
+        self.assertEqual([g.name for g in self.obj.vertex_groups], ["ARAP_Fixed"])
+        self.assertEqual(self.obj.arap.fixed_group, "ARAP_Fixed")
+        g = self.obj.vertex_groups["ARAP_Fixed"].index
+        self.assertEqual([v.index for v in self.obj.data.vertices for e in v.groups if e.group == g], picked)
+
+    def test_set_fixed_writes_the_group_the_settings_name(self):
+        bpy.ops.object.mode_set(mode='OBJECT')
+        self.obj.vertex_groups.new(name="feet")
+        api.set_fixed(self.obj, "feet")
+        bpy.ops.object.mode_set(mode='EDIT')
+        picked = select_in_edit_mode(self.obj, lambda co: co.z < -1.5)
+        bpy.ops.object.arap_set_fixed_from_selection()
+        bpy.ops.object.mode_set(mode='OBJECT')
+        self.assertEqual([g.name for g in self.obj.vertex_groups], ["feet"])
+        self.assertEqual(self.obj.arap.fixed_group, "feet")
+        self.assertEqual([v.index for v in self.obj.data.vertices if v.groups], picked)
+
+
 class PanelAndRedo(unittest.TestCase):
     def setUp(self):
         U.clear_scene()

@@ -58,6 +58,52 @@ def _assign(obj, group, indices, replace):
     bmesh.update_edit_mesh(obj.data)
 
 
+def _record_settings_in_undo(obj):
+    """Make the undo step of a set-up operator run in Edit Mode restore the object's
+    ARAP settings too, as it does in Object Mode.
+
+    In Edit Mode the operator's undo step is an edit-mesh step: it restores the mesh
+    (its weights; its group names in Blender 5.2, not in 3.4 or 4.3) and nothing of the
+    object (obj.arap, new Empties). Those are in Blender's global undo steps only, and
+    Blender writes one beside an edit-mesh step only when a data-block was added or
+    removed since the last (undo_system.cc: "MemFile Internal (pre)", hidden from Undo
+    History). Without it the settings changed here are in no undo step, and the next
+    undo that loads an older global step drops them: Set Fixed, select, Add Handle,
+    Ctrl+Z lost the Fixed setting (the new Empty had made Blender write a global step).
+    Adding and removing a scratch data-block asks for that global step; written after
+    this operator, it holds the settings and the Empties. (Leaving Edit Mode for the
+    work and going back does not: the step is still an edit-mesh step.)
+    """
+    if obj.mode == 'EDIT':
+        bpy.data.texts.remove(bpy.data.texts.new(".arap_undo"))
+
+
+FIXED_GROUP = "ARAP_Fixed"
+HANDLE_GROUP = "ARAP_Handle_"
+
+
+def _fixed_group(obj):
+    """The group Set Fixed writes: the one the settings name, else the ARAP_Fixed group
+    made before (also when the settings lost it), else a new ARAP_Fixed."""
+    for name in (obj.arap.fixed_group, FIXED_GROUP):
+        group = obj.vertex_groups.get(name) if name else None
+        if group is not None:
+            return group
+    return obj.vertex_groups.new(name=FIXED_GROUP)
+
+
+def _new_handle_group_name(obj):
+    """ARAP_Handle_<n>, n one more than the highest number a vertex group, a handle or a
+    handle Empty (<object>_ARAP_Handle_<n>) of `obj` uses: a removed handle's number is
+    not given again while its group or Empty is kept."""
+    prefix = obj.name + "_"
+    names = [g.name for g in obj.vertex_groups] + [h.group for h in obj.arap.handles]
+    names += [o.name[len(prefix):] for o in bpy.data.objects if o.name.startswith(prefix)]
+    numbers = [int(n[len(HANDLE_GROUP):]) for n in names
+               if n.startswith(HANDLE_GROUP) and n[len(HANDLE_GROUP):].isdigit()]
+    return HANDLE_GROUP + str(max(numbers, default=0) + 1)
+
+
 NOTHING_SELECTED = "No vertex is selected: select some in Edit Mode (Tab), then press the button again"
 
 
@@ -67,8 +113,9 @@ class ARAP_OT_add_handle_from_selection(bpy.types.Operator):
     bl_label = "Add Handle from Selection"
     bl_options = {'REGISTER', 'UNDO'}
 
-    group_name: StringProperty(name="Group Name", default="Handle",
-                               description="Name of the new vertex group (made unique)")
+    group_name: StringProperty(name="Group Name", default="",
+                               description="Name of the new vertex group (made unique); empty: ARAP_Handle_1, "
+                                           "ARAP_Handle_2, ... (the next number on this object)")
 
     @classmethod
     def poll(cls, context):
@@ -80,10 +127,10 @@ class ARAP_OT_add_handle_from_selection(bpy.types.Operator):
         if not indices:
             self.report({'ERROR'}, NOTHING_SELECTED)
             return {'CANCELLED'}
-        group = obj.vertex_groups.new(name=self.group_name)
+        group = obj.vertex_groups.new(name=self.group_name or _new_handle_group_name(obj))
         _assign(obj, group, indices, replace=False)
-        # The group's name first: what tells handles apart when the list cuts names short.
-        empty = bpy.data.objects.new("%s_%s" % (group.name, obj.name), None)
+        # Named after its object and group: Bar_ARAP_Handle_1 drives group ARAP_Handle_1 of Bar.
+        empty = bpy.data.objects.new("%s_%s" % (obj.name, group.name), None)
         empty.empty_display_type = 'SPHERE'
         empty.empty_display_size = max(0.05, 0.1 * max(obj.dimensions))
         collection = obj.users_collection[0] if obj.users_collection else context.scene.collection
@@ -91,6 +138,7 @@ class ARAP_OT_add_handle_from_selection(bpy.types.Operator):
         # Set matrix_world (not location) so it is valid before the next depsgraph update.
         empty.matrix_world = Matrix.Translation(obj.matrix_world @ centroid)
         api.add_handle(obj, group.name, empty)
+        _record_settings_in_undo(obj)
         self.report({'INFO'}, "Handle '%s': %d vertices, empty '%s'" % (group.name, len(indices), empty.name))
         return {'FINISHED'}
 
@@ -111,12 +159,10 @@ class ARAP_OT_set_fixed_from_selection(bpy.types.Operator):
         if not indices:
             self.report({'ERROR'}, NOTHING_SELECTED)
             return {'CANCELLED'}
-        name = obj.arap.fixed_group
-        group = obj.vertex_groups.get(name) if name else None
-        if group is None:
-            group = obj.vertex_groups.new(name="ARAP_Fixed")
+        group = _fixed_group(obj)
         _assign(obj, group, indices, replace=True)
         obj.arap.fixed_group = group.name
+        _record_settings_in_undo(obj)
         self.report({'INFO'}, "Fixed group '%s': %d vertices" % (group.name, len(indices)))
         return {'FINISHED'}
 
@@ -132,9 +178,10 @@ class ARAP_OT_handle_add(bpy.types.Operator):
         return sessions.target_mesh(context) is not None
 
     def execute(self, context):
-        s = sessions.target_mesh(context).arap
-        s.handles.add()
-        s.active_handle = len(s.handles) - 1
+        obj = sessions.target_mesh(context)
+        obj.arap.handles.add()
+        obj.arap.active_handle = len(obj.arap.handles) - 1
+        _record_settings_in_undo(obj)
         return {'FINISHED'}
 
 
@@ -152,6 +199,7 @@ class ARAP_OT_handle_remove(bpy.types.Operator):
     def execute(self, context):
         obj = sessions.target_mesh(context)
         api.remove_handle(obj, min(obj.arap.active_handle, len(obj.arap.handles) - 1))
+        _record_settings_in_undo(obj)
         return {'FINISHED'}
 
 
