@@ -1,4 +1,5 @@
 # Shared helpers of the Blender tests: scenes from Blender primitives only.
+import importlib
 import os
 
 import addon_utils
@@ -8,8 +9,20 @@ import numpy as np
 from mathutils import Matrix
 
 # The add-on's module name as Blender loads it: "arap_deform" (legacy add-on,
-# Blender 3.x) or "bl_ext.user_default.arap_deform" (extension, 4.2+); ctest sets it.
+# Blender 3.x) or "bl_ext.user_default.arap_deform" (extension, 4.2+); ctest sets
+# it, scripts that load the add-on another way assign it.
 ADDON_MODULE = os.environ.get("ARAP_ADDON_MODULE", "arap_deform")
+
+
+def addon(*names):
+    """The loaded add-on's submodules by name, under the name Blender loaded it
+    with (ADDON_MODULE): `api = addon("api")`, `api, bake = addon("api", "bake")`;
+    addon() is the package. The add-on is only in sys.modules under that name, so
+    `import arap_deform` fails when Blender loaded it as an extension."""
+    if not names:
+        return importlib.import_module(ADDON_MODULE)
+    modules = tuple(importlib.import_module(ADDON_MODULE + "." + name) for name in names)
+    return modules[0] if len(names) == 1 else modules
 
 
 def enable_addon(handle_error=None):
@@ -51,7 +64,7 @@ def clear_scene():
         bpy.data.objects.remove(ob)
     for me in list(bpy.data.meshes):
         bpy.data.meshes.remove(me)
-    from arap_deform import engine, sessions
+    engine, sessions = addon("engine", "sessions")
     sessions.stop_all_sessions()
     engine.clear_cache()
 
@@ -162,7 +175,7 @@ def bar_with_handle(fixed_below=-1.5, handle_above=1.5, **cylinder):
     obj = add_cylinder(**cylinder)
     fixed = group_where(obj, "bottom", lambda co: co.z < fixed_below)
     top = group_where(obj, "top", lambda co: co.z > handle_above)
-    from arap_deform import api
+    api = addon("api")
     api.set_fixed(obj, "bottom")
     empty = add_empty("TopEmpty", Matrix.Translation((0, 0, 2.0)))
     api.add_handle(obj, "top", empty)

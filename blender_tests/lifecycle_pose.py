@@ -14,6 +14,9 @@ import addon_utils
 import bpy
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import arap_test_utils as U  # noqa: E402
+
 
 def enabled_modules():
     return {a.module for a in bpy.context.preferences.addons}
@@ -22,7 +25,7 @@ def enabled_modules():
 def pose_a_bar():
     """A capped cylinder, bottom fixed, top on an Empty moved by (0.3, 0, 0.2):
     the top must move by exactly that and nothing may be non-finite."""
-    from arap_deform import api  # the public name, also for extensions (see __init__.py)
+    api = U.addon("api")
     bpy.ops.wm.read_homefile(use_empty=True)
     bpy.ops.mesh.primitive_cylinder_add(vertices=16, radius=0.3, depth=2.0)
     obj = bpy.context.active_object
@@ -55,6 +58,7 @@ def pose_a_bar():
 def pose(module):
     if module not in enabled_modules():
         raise AssertionError("%s is not enabled at start-up (enabled: %s)" % (module, sorted(enabled_modules())))
+    U.ADDON_MODULE = module
     pose_a_bar()
     print("LIFECYCLE POSE OK")
 
@@ -80,6 +84,7 @@ def install_from_disk(zip_path):
     module = "bl_ext.user_default.arap_deform"
     if module not in enabled_modules():
         raise AssertionError("Install from Disk did not enable %s" % module)
+    U.ADDON_MODULE = module
     pose_a_bar()
     bpy.ops.extensions.package_uninstall(repo_index=index, pkg_id="arap_deform")
     if module in enabled_modules() or hasattr(bpy.types.Object, "arap"):

@@ -8,8 +8,9 @@ import bpy
 import numpy as np
 
 import arap_test_utils as U
-from arap_deform import anim_compat, api, bake, bake_ops
-from arap_deform.constraints import SetupError
+
+anim_compat, api, bake, bake_ops = U.addon("anim_compat", "api", "bake", "bake_ops")
+SetupError = U.addon("constraints").SetupError
 
 FRAMES = range(1, 11)
 

@@ -7,7 +7,8 @@ import numpy as np
 from mathutils import Euler, Matrix, Vector
 
 import arap_test_utils as U
-from arap_deform import api
+
+api = U.addon("api")
 
 
 def select_in_edit_mode(obj, predicate):
@@ -127,7 +128,7 @@ class PanelAndRedo(unittest.TestCase):
         self.obj, self.empty, self.fixed, self.top = U.bar_with_handle()
 
     def test_an_active_handle_empty_keeps_the_mesh_panel(self):
-        from arap_deform import sessions, ui
+        sessions, ui = U.addon("sessions", "ui")
         bpy.context.view_layer.objects.active = self.empty
         self.assertIs(sessions.target_mesh(bpy.context), self.obj)
         self.assertTrue(ui.ARAP_PT_main.poll(bpy.context))
@@ -143,7 +144,7 @@ class PanelAndRedo(unittest.TestCase):
         self.assertFalse(ui.ARAP_PT_main.poll(bpy.context))
 
     def test_solver_settings_in_a_collapsed_sub_panel_with_plain_tooltips(self):
-        from arap_deform import properties, ui
+        properties, ui = U.addon("properties", "ui")
         self.assertEqual(ui.ARAP_PT_solver.bl_parent_id, "ARAP_PT_main")
         self.assertIn('DEFAULT_CLOSED', ui.ARAP_PT_solver.bl_options)
         for name in ("iterations", "live_iterations", "tolerance", "weights", "init", "acceleration", "threads"):

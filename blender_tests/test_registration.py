@@ -43,7 +43,7 @@ class Registration(unittest.TestCase):
             self.assertNotIn("arap_deform.api", sys.modules)
 
     def test_operators_documented_and_in_menus(self):
-        from arap_deform import operators
+        operators = U.addon("operators")
         for cls in operators.classes:
             self.assertTrue(cls.__doc__ and cls.__doc__.strip(), cls.__name__)
             self.assertTrue(cls.bl_idname.startswith("object.arap_"), cls.bl_idname)

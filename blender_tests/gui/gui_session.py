@@ -13,11 +13,13 @@ import os
 import sys
 import traceback
 
-import addon_utils
 import bmesh
 import bpy
 import numpy as np
 from mathutils import Matrix
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+import arap_test_utils as U  # noqa: E402
 
 OUT = sys.argv[sys.argv.index("--") + 1]
 # "tick" counts the state writes: the driver waits for it to advance to know
@@ -35,8 +37,8 @@ def view3d():
 
 
 def setup():
-    addon_utils.enable(os.environ.get("ARAP_ADDON_MODULE", "arap_deform"), default_set=True)
-    from arap_deform import api
+    U.enable_addon()
+    api = U.addon("api")
     for ob in list(bpy.data.objects):
         bpy.data.objects.remove(ob)
     bpy.ops.mesh.primitive_cylinder_add(vertices=16, depth=2.0, radius=0.3)
@@ -148,7 +150,7 @@ def screenshot(name):
 
 
 def write_state():
-    from arap_deform import operators, sessions
+    operators, sessions = U.addon("operators", "sessions")
     obj = bpy.data.objects.get("Bar")
     if obj is not None and STATE["ready"]:
         co = np.empty(len(obj.data.vertices) * 3, np.float32)
