@@ -1,6 +1,7 @@
 # Shared helpers of the Blender tests: scenes from Blender primitives only.
 import importlib
 import os
+import sys
 
 import addon_utils
 import bmesh
@@ -23,6 +24,33 @@ def addon(*names):
         return importlib.import_module(ADDON_MODULE)
     modules = tuple(importlib.import_module(ADDON_MODULE + "." + name) for name in names)
     return modules[0] if len(names) == 1 else modules
+
+
+def modules_under_other_names():
+    """{sys.modules key: file} of every key outside the add-on's package that
+    holds one of the add-on's modules, found by identity or by its file lying in
+    the add-on's folder (Blender's extension policy forbids them): empty when
+    the add-on keeps to its own name."""
+    def in_package(name):
+        return name == ADDON_MODULE or name.startswith(ADDON_MODULE + ".")
+
+    folder = os.path.realpath(os.path.dirname(sys.modules[ADDON_MODULE].__file__)) + os.sep
+    entries = [(name, module) for name, module in list(sys.modules.items()) if module is not None]
+    ours = {id(module) for name, module in entries if in_package(name)}
+    found = {}
+    for name, module in entries:
+        path = getattr(module, "__file__", None) or ""
+        if not in_package(name) and (id(module) in ours or (path and os.path.realpath(path).startswith(folder))):
+            found[name] = path
+    return found
+
+
+def extension_policy_warnings():
+    """What Blender 4.2+ lists under the warning sign of the add-on's extension
+    in the Preferences ("Policy violation with top level module: ..."), computed
+    now rather than the first time they were asked for."""
+    addon_utils._extensions_warnings_get._is_first = True
+    return list(addon_utils._extensions_warnings_get().get(ADDON_MODULE, []))
 
 
 def enable_addon(handle_error=None):

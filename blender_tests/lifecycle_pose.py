@@ -6,6 +6,8 @@
 #   ... --python lifecycle_pose.py -- legacy-install <zip>     3.x: Install..., enable, save preferences
 #   ... --python lifecycle_pose.py -- legacy-remove            3.x: disable, remove, save preferences
 # Each mode prints "LIFECYCLE ... OK" when every check held; any failure raises.
+# Where the add-on is enabled, its modules must sit only under its own name, and
+# on 4.2+ the Preferences must show no policy warning for the extension.
 import os
 import shutil
 import sys
@@ -55,11 +57,25 @@ def pose_a_bar():
         raise AssertionError("object.arap_deform did not finish")
 
 
+def check_policy():
+    """The add-on (U.ADDON_MODULE) keeps to its name in sys.modules; on 4.2+ Blender
+    lists no policy warning for it."""
+    others = U.modules_under_other_names()
+    if others:
+        raise AssertionError("the add-on's modules also sit under other names: %s" % others)
+    if bpy.app.version >= (4, 2):
+        warnings = U.extension_policy_warnings()
+        if warnings:
+            raise AssertionError("policy warnings for %s:\n%s" % (U.ADDON_MODULE, "\n".join(warnings)))
+    print("no policy warnings for %s" % U.ADDON_MODULE)
+
+
 def pose(module):
     if module not in enabled_modules():
         raise AssertionError("%s is not enabled at start-up (enabled: %s)" % (module, sorted(enabled_modules())))
     U.ADDON_MODULE = module
     pose_a_bar()
+    check_policy()
     print("LIFECYCLE POSE OK")
 
 
@@ -86,6 +102,7 @@ def install_from_disk(zip_path):
         raise AssertionError("Install from Disk did not enable %s" % module)
     U.ADDON_MODULE = module
     pose_a_bar()
+    check_policy()
     bpy.ops.extensions.package_uninstall(repo_index=index, pkg_id="arap_deform")
     if module in enabled_modules() or hasattr(bpy.types.Object, "arap"):
         raise AssertionError("uninstall left the add-on enabled or registered")
