@@ -122,6 +122,35 @@ class HandlesFromSelection(unittest.TestCase):
         self.assertEqual(len(self.obj.arap.handles), 0)
 
 
+def shown(panel, context):
+    """Whether Blender draws `panel`: a panel without poll() always is."""
+    return not hasattr(panel, "poll") or panel.poll(context)
+
+
+class StandInLayout:
+    """Records the calls a panel's draw() makes; each returns a child layout (row, column, box ...)."""
+
+    def __init__(self):
+        self.calls = []
+        self.children = []
+
+    def __getattr__(self, name):
+        def call(*args, **kwargs):
+            self.calls.append((name, args, kwargs))
+            child = StandInLayout()
+            self.children.append(child)
+            return child
+        return call
+
+    def all_calls(self):
+        return self.calls + [c for child in self.children for c in child.all_calls()]
+
+
+class StandInPanel:
+    def __init__(self):
+        self.layout = StandInLayout()
+
+
 class PanelAndRedo(unittest.TestCase):
     def setUp(self):
         U.clear_scene()
@@ -131,7 +160,7 @@ class PanelAndRedo(unittest.TestCase):
         sessions, ui = U.addon("sessions", "ui")
         bpy.context.view_layer.objects.active = self.empty
         self.assertIs(sessions.target_mesh(bpy.context), self.obj)
-        self.assertTrue(ui.ARAP_PT_main.poll(bpy.context))
+        self.assertTrue(shown(ui.ARAP_PT_solver, bpy.context))
         # ... and the panel's buttons act on that mesh.
         rest = U.coords(self.obj)
         self.empty.location.x += 0.5
@@ -141,7 +170,29 @@ class PanelAndRedo(unittest.TestCase):
         bpy.context.scene.collection.objects.link(other)
         bpy.context.view_layer.objects.active = other
         self.assertIsNone(sessions.target_mesh(bpy.context))
-        self.assertFalse(ui.ARAP_PT_main.poll(bpy.context))
+        self.assertFalse(ui.ARAP_PT_solver.poll(bpy.context))
+
+    def test_the_tab_is_there_without_a_mesh(self):
+        # Right after installing, with no mesh (or none active): the ARAP tab shows
+        # one line saying what to do; the sub-panels stay hidden.
+        ui, bake_ops = U.addon("ui", "bake_ops")
+        for active in (None, U.add_empty("Unrelated")):
+            bpy.context.view_layer.objects.active = active
+            self.assertTrue(shown(ui.ARAP_PT_main, bpy.context))
+            self.assertFalse(shown(ui.ARAP_PT_solver, bpy.context))
+            self.assertFalse(shown(bake_ops.ARAP_PT_bake, bpy.context))
+            panel = StandInPanel()
+            ui.ARAP_PT_main.draw(panel, bpy.context)
+            self.assertEqual(panel.layout.calls, [("label", (), {"text": "Select a mesh object to pose it",
+                                                                  "icon": 'INFO'})])
+        # With the mesh active, the same draw shows its settings, not the line.
+        bpy.context.view_layer.objects.active = self.obj
+        self.assertTrue(shown(ui.ARAP_PT_solver, bpy.context))
+        panel = StandInPanel()
+        ui.ARAP_PT_main.draw(panel, bpy.context)
+        texts = [kw.get("text") for _name, _args, kw in panel.layout.all_calls()]
+        self.assertNotIn("Select a mesh object to pose it", texts)
+        self.assertIn("Fixed Vertices", texts)
 
     def test_solver_settings_in_a_collapsed_sub_panel_with_plain_tooltips(self):
         properties, ui = U.addon("properties", "ui")
