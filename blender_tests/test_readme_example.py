@@ -50,6 +50,14 @@ class ReadmeExample(unittest.TestCase):
         finally:
             session.cancel()
 
+    def test_api_docstring_gives_the_same_recipe(self):
+        def code(text):
+            return [line.split("#")[0].strip() for line in text.splitlines() if line.split("#")[0].strip()]
+        recipe, doc = code(loading_recipe()), code(U.addon("api").__doc__)
+        self.assertIn(recipe[0], doc)
+        start = doc.index(recipe[0])
+        self.assertEqual(doc[start:start + len(recipe)], recipe)
+
     def test_scripting_example_poses_the_mesh(self):
         body = U.add_cylinder(name="Body")
         rest = U.coords(body)
