@@ -63,11 +63,12 @@ def check_policy():
     others = U.modules_under_other_names()
     if others:
         raise AssertionError("the add-on's modules also sit under other names: %s" % others)
+    print("the add-on's modules sit only under %s" % U.ADDON_MODULE)
     if bpy.app.version >= (4, 2):
         warnings = U.extension_policy_warnings()
         if warnings:
             raise AssertionError("policy warnings for %s:\n%s" % (U.ADDON_MODULE, "\n".join(warnings)))
-    print("no policy warnings for %s" % U.ADDON_MODULE)
+        print("no policy warnings for %s" % U.ADDON_MODULE)
 
 
 def pose(module):
