@@ -1,5 +1,7 @@
 # Shared helpers of the Blender tests: scenes from Blender primitives only.
+import importlib
 import os
+import sys
 
 import addon_utils
 import bmesh
@@ -8,8 +10,47 @@ import numpy as np
 from mathutils import Matrix
 
 # The add-on's module name as Blender loads it: "arap_deform" (legacy add-on,
-# Blender 3.x) or "bl_ext.user_default.arap_deform" (extension, 4.2+); ctest sets it.
+# Blender 3.x) or "bl_ext.user_default.arap_deform" (extension, 4.2+); ctest sets
+# it, scripts that load the add-on another way assign it.
 ADDON_MODULE = os.environ.get("ARAP_ADDON_MODULE", "arap_deform")
+
+
+def addon(*names):
+    """The loaded add-on's submodules by name, under the name Blender loaded it
+    with (ADDON_MODULE): `api = addon("api")`, `api, bake = addon("api", "bake")`;
+    addon() is the package. The add-on is only in sys.modules under that name, so
+    `import arap_deform` fails when Blender loaded it as an extension."""
+    if not names:
+        return importlib.import_module(ADDON_MODULE)
+    modules = tuple(importlib.import_module(ADDON_MODULE + "." + name) for name in names)
+    return modules[0] if len(names) == 1 else modules
+
+
+def modules_under_other_names():
+    """{sys.modules key: file} of every key outside the add-on's package that
+    holds one of the add-on's modules, found by identity or by its file lying in
+    the add-on's folder (Blender's extension policy forbids them): empty when
+    the add-on keeps to its own name."""
+    def in_package(name):
+        return name == ADDON_MODULE or name.startswith(ADDON_MODULE + ".")
+
+    folder = os.path.realpath(os.path.dirname(sys.modules[ADDON_MODULE].__file__)) + os.sep
+    entries = [(name, module) for name, module in list(sys.modules.items()) if module is not None]
+    ours = {id(module) for name, module in entries if in_package(name)}
+    found = {}
+    for name, module in entries:
+        path = getattr(module, "__file__", None) or ""
+        if not in_package(name) and (id(module) in ours or (path and os.path.realpath(path).startswith(folder))):
+            found[name] = path
+    return found
+
+
+def extension_policy_warnings():
+    """What Blender 4.2+ lists under the warning sign of the add-on's extension
+    in the Preferences ("Policy violation with top level module: ..."), computed
+    now rather than the first time they were asked for."""
+    addon_utils._extensions_warnings_get._is_first = True
+    return list(addon_utils._extensions_warnings_get().get(ADDON_MODULE, []))
 
 
 def enable_addon(handle_error=None):
@@ -51,7 +92,7 @@ def clear_scene():
         bpy.data.objects.remove(ob)
     for me in list(bpy.data.meshes):
         bpy.data.meshes.remove(me)
-    from arap_deform import engine, sessions
+    engine, sessions = addon("engine", "sessions")
     sessions.stop_all_sessions()
     engine.clear_cache()
 
@@ -162,7 +203,7 @@ def bar_with_handle(fixed_below=-1.5, handle_above=1.5, **cylinder):
     obj = add_cylinder(**cylinder)
     fixed = group_where(obj, "bottom", lambda co: co.z < fixed_below)
     top = group_where(obj, "top", lambda co: co.z > handle_above)
-    from arap_deform import api
+    api = addon("api")
     api.set_fixed(obj, "bottom")
     empty = add_empty("TopEmpty", Matrix.Translation((0, 0, 2.0)))
     api.add_handle(obj, "top", empty)

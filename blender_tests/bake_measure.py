@@ -13,17 +13,15 @@ import os
 import sys
 import time
 
-import addon_utils
+import bpy
+import numpy as np
+from mathutils import Matrix
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-addon_utils.enable("arap_deform", default_set=True)
-
-import bpy  # noqa: E402
-import numpy as np  # noqa: E402
-from mathutils import Matrix  # noqa: E402
-
 import arap_test_utils as U  # noqa: E402
-from arap_deform import api, bake  # noqa: E402
+
+U.enable_addon()
+api, bake = U.addon("api", "bake")
 
 argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 dz, twist = (float(argv[0]), float(argv[1])) if len(argv) == 2 else (-0.3, 0.3)

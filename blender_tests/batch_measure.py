@@ -18,12 +18,11 @@ import statistics
 import subprocess
 import sys
 
-import addon_utils
-
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-addon_utils.enable("arap_deform", default_set=True)
+import arap_test_utils as U  # noqa: E402
 
-import batch_scenes as S  # noqa: E402
+U.enable_addon()
+import batch_scenes as S  # noqa: E402  (after enable_addon: it uses the add-on's api)
 import test_batch as T  # noqa: E402  (launcher lookup and environment)
 
 argv = sys.argv[sys.argv.index("--") + 1:]

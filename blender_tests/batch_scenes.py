@@ -6,7 +6,8 @@ import bpy
 from mathutils import Matrix
 
 import arap_test_utils as U
-from arap_deform import api
+
+api = U.addon("api")
 
 
 def _save(path):

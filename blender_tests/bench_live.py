@@ -31,6 +31,7 @@ import numpy as np
 from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import arap_test_utils as U  # noqa: E402
 from tube_scene import (add_empty, add_group, clear_scene, laplacian_with_hook, load_addon,  # noqa: E402
                         make_tube, move, offsets)
 
@@ -160,7 +161,7 @@ def summary(ms):
 def main():
     args = parse_args()
     load_addon(args.addon_dir)
-    from arap_deform import api
+    api = U.addon("api")
     rows = []
     for n in [int(x) for x in args.sizes.split(",") if x]:
         clear_scene()

@@ -29,6 +29,7 @@ import numpy as np
 from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import arap_test_utils as U  # noqa: E402
 from tube_scene import (add_empty, add_group, clear_scene, laplacian_with_hook, load_addon, make_tube,  # noqa: E402
                         offsets)
 
@@ -239,7 +240,7 @@ class ViewportRun:
 def main():
     args = parse_args()
     load_addon(args.addon_dir)
-    from arap_deform import api, auto, bake
+    api, auto, bake = U.addon("api", "auto", "bake")
     if args.viewport:
         run = ViewportRun(args, api)
         bpy.app.handlers.frame_change_post.append(run.frame_changed)

@@ -13,6 +13,9 @@
 #        Preferences button runs), pose, uninstall (package_uninstall).
 #   Blender 3.x: Install... (preferences.addon_install), enable, pose in a new
 #   Blender, disable and remove (preferences.addon_remove).
+# Every pose also checks that the enabled add-on's modules sit only under its own
+# name and, on 4.2+, that Blender lists no policy warning for the extension (what
+# the Preferences would show under a warning sign).
 import argparse
 import os
 import re

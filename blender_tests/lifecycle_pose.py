@@ -6,6 +6,8 @@
 #   ... --python lifecycle_pose.py -- legacy-install <zip>     3.x: Install..., enable, save preferences
 #   ... --python lifecycle_pose.py -- legacy-remove            3.x: disable, remove, save preferences
 # Each mode prints "LIFECYCLE ... OK" when every check held; any failure raises.
+# Where the add-on is enabled, its modules must sit only under its own name, and
+# on 4.2+ the Preferences must show no policy warning for the extension.
 import os
 import shutil
 import sys
@@ -13,6 +15,9 @@ import sys
 import addon_utils
 import bpy
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import arap_test_utils as U  # noqa: E402
 
 
 def enabled_modules():
@@ -22,7 +27,7 @@ def enabled_modules():
 def pose_a_bar():
     """A capped cylinder, bottom fixed, top on an Empty moved by (0.3, 0, 0.2):
     the top must move by exactly that and nothing may be non-finite."""
-    from arap_deform import api  # the public name, also for extensions (see __init__.py)
+    api = U.addon("api")
     bpy.ops.wm.read_homefile(use_empty=True)
     bpy.ops.mesh.primitive_cylinder_add(vertices=16, radius=0.3, depth=2.0)
     obj = bpy.context.active_object
@@ -52,10 +57,26 @@ def pose_a_bar():
         raise AssertionError("object.arap_deform did not finish")
 
 
+def check_policy():
+    """The add-on (U.ADDON_MODULE) keeps to its name in sys.modules; on 4.2+ Blender
+    lists no policy warning for it."""
+    others = U.modules_under_other_names()
+    if others:
+        raise AssertionError("the add-on's modules also sit under other names: %s" % others)
+    print("the add-on's modules sit only under %s" % U.ADDON_MODULE)
+    if bpy.app.version >= (4, 2):
+        warnings = U.extension_policy_warnings()
+        if warnings:
+            raise AssertionError("policy warnings for %s:\n%s" % (U.ADDON_MODULE, "\n".join(warnings)))
+        print("no policy warnings for %s" % U.ADDON_MODULE)
+
+
 def pose(module):
     if module not in enabled_modules():
         raise AssertionError("%s is not enabled at start-up (enabled: %s)" % (module, sorted(enabled_modules())))
+    U.ADDON_MODULE = module
     pose_a_bar()
+    check_policy()
     print("LIFECYCLE POSE OK")
 
 
@@ -80,7 +101,9 @@ def install_from_disk(zip_path):
     module = "bl_ext.user_default.arap_deform"
     if module not in enabled_modules():
         raise AssertionError("Install from Disk did not enable %s" % module)
+    U.ADDON_MODULE = module
     pose_a_bar()
+    check_policy()
     bpy.ops.extensions.package_uninstall(repo_index=index, pkg_id="arap_deform")
     if module in enabled_modules() or hasattr(bpy.types.Object, "arap"):
         raise AssertionError("uninstall left the add-on enabled or registered")

@@ -6,14 +6,17 @@
 # UV spheres of ~10k and ~50k vertices, bottom cap fixed, top cap on an empty
 # that moves a little every frame. Prints medians: read (empties -> targets),
 # solve (native, warm-started), write (foreach_set + mesh.update()), total.
+import os
 import statistics
 import sys
 import time
 
-import addon_utils
 import bpy
 import numpy as np
 from mathutils import Matrix
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import arap_test_utils as U  # noqa: E402
 
 
 def sphere(segments, rings):
@@ -29,14 +32,14 @@ def sphere(segments, rings):
     empty = bpy.data.objects.new("E", None)
     bpy.context.scene.collection.objects.link(empty)
     empty.matrix_world = Matrix.Translation((0, 0, 1))
-    from arap_deform import api
+    api = U.addon("api")
     api.set_fixed(obj, "bottom")
     api.add_handle(obj, "top", empty)
     return obj, empty
 
 
 def measure(segments, rings, frames, iterations):
-    from arap_deform import api
+    api = U.addon("api")
     obj, empty = sphere(segments, rings)
     session = api.start_session(obj, bpy.context.scene, iterations=iterations)
     rows = []
@@ -65,7 +68,7 @@ def main():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     frames = int(argv[0]) if argv else 50
     iterations = int(argv[1]) if len(argv) > 1 else 1
-    addon_utils.enable("arap_deform", default_set=True)
+    U.enable_addon()
     measure(142, 71, frames, iterations)    # 9,942 vertices
     measure(316, 159, frames, iterations)   # 49,930 vertices
 

@@ -9,8 +9,9 @@ import numpy as np
 from mathutils import Matrix
 
 import arap_test_utils as U
-from arap_deform import api, auto, bake
-from arap_deform.constraints import SetupError
+
+api, auto, bake = U.addon("api", "auto", "bake")
+SetupError = U.addon("constraints").SetupError
 
 FRAMES = range(1, 9)
 

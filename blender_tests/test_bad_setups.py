@@ -6,7 +6,8 @@ import numpy as np
 from mathutils import Matrix
 
 import arap_test_utils as U
-from arap_deform import api
+
+api = U.addon("api")
 
 
 class BadSetups(unittest.TestCase):

@@ -3,13 +3,15 @@
 import os
 import tempfile
 import unittest
+import warnings
 
 import bpy
 import numpy as np
 
 import arap_test_utils as U
-from arap_deform import anim_compat, api, bake, bake_ops
-from arap_deform.constraints import SetupError
+
+anim_compat, api, bake, bake_ops = U.addon("anim_compat", "api", "bake", "bake_ops")
+SetupError = U.addon("constraints").SetupError
 
 FRAMES = range(1, 11)
 
@@ -252,6 +254,21 @@ class Bake(unittest.TestCase):
         self.assertFalse(bake.is_baked(self.obj))
         # Invoked (as from a button) in --background: still synchronous.
         self.assertEqual(bpy.ops.object.arap_bake('INVOKE_DEFAULT', frame_start=1, frame_end=2), {'FINISHED'})
+
+    def test_blend_relative_path_without_a_warning(self):
+        # Blender 5.2 warns at each "//" value of a FILE_PATH property that does not
+        # declare PATH_SUPPORTS_BLEND_RELATIVE (3.4 and 4.3 refuse the flag).
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(self.tmp, "scene.blend"))
+        bpy.context.view_layer.objects.active = self.obj
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = bpy.ops.object.arap_bake(frame_start=1, frame_end=3, output='PC2', filepath="//x.pc2")
+        self.assertEqual(result, {'FINISHED'})
+        self.assertEqual([str(w.message) for w in caught], [])
+        self.assertEqual(bake.read_pc2(os.path.join(self.tmp, "x.pc2"))[2].shape[0], 3)
+        prop = bpy.ops.object.arap_bake.get_rna_type().properties["filepath"]
+        if hasattr(prop, "is_path_supports_blend_relative"):
+            self.assertTrue(prop.is_path_supports_blend_relative)
 
     def test_operator_reports_setup_errors(self):
         bpy.context.view_layer.objects.active = self.obj

@@ -21,8 +21,8 @@ import numpy as np
 
 import arap_test_utils as U
 import batch_scenes as S
-import arap_deform
-from arap_deform import bake
+
+bake = U.addon("bake")
 
 PYTHON = "/usr/bin/python3" if os.path.exists("/usr/bin/python3") else shutil.which("python3")
 
@@ -31,7 +31,7 @@ def find_launcher():
     env = os.environ.get("ARAP_BATCH_LAUNCHER")
     if env:
         return env
-    staged = os.path.dirname(os.path.realpath(arap_deform.__file__))
+    staged = os.path.dirname(os.path.realpath(U.addon().__file__))
     return os.path.join(os.path.dirname(os.path.dirname(staged)), "arap-batch")
 
 
@@ -221,7 +221,7 @@ class Batch(unittest.TestCase):
         src, out = self.folder("in"), self.folder("out")
         good = S.make_good(os.path.join(src, "a.blend"))
         bad = S.make_no_settings(os.path.join(src, "b.blend"))
-        addon = os.path.dirname(os.path.realpath(arap_deform.__file__))
+        addon = os.path.dirname(os.path.realpath(U.addon().__file__))
         expr = ("import sys; sys.path.insert(0, %r); from arap_deform import batch_worker; batch_worker.main()"
                 % os.path.dirname(addon))
         codes = []

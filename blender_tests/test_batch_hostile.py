@@ -6,9 +6,11 @@ import shutil
 import tempfile
 import unittest
 
+import arap_test_utils as U
 import batch_scenes as S
-from arap_deform import batch_worker
 from test_batch import hashes, run_batch
+
+batch_worker = U.addon("batch_worker")
 
 
 class BatchHostile(unittest.TestCase):

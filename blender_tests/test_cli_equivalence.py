@@ -12,7 +12,8 @@ import numpy as np
 from mathutils import Euler, Matrix
 
 import arap_test_utils as U
-from arap_deform import api, problem
+
+api, problem = U.addon("api", "problem")
 
 CLI = os.environ.get("ARAP_DEFORM_CLI", "")
 

@@ -8,7 +8,8 @@ import numpy as np
 from mathutils import Euler, Matrix
 
 import arap_test_utils as U
-from arap_deform import api, native_loader, problem
+
+api, native_loader, problem = U.addon("api", "native_loader", "problem")
 
 
 def posed_empty_matrix():

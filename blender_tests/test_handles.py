@@ -7,7 +7,8 @@ import numpy as np
 from mathutils import Euler, Matrix, Vector
 
 import arap_test_utils as U
-from arap_deform import api
+
+api = U.addon("api")
 
 
 def select_in_edit_mode(obj, predicate):
@@ -193,16 +194,45 @@ class SetUpNames(unittest.TestCase):
         self.assertEqual([v.index for v in self.obj.data.vertices if v.groups], picked)
 
 
+def shown(panel, context):
+    """Whether Blender draws `panel`: a panel without poll() always is."""
+    return not hasattr(panel, "poll") or panel.poll(context)
+
+
+class StandInLayout:
+    """Records the calls a panel's draw() makes; each returns a child layout (row, column, box ...)."""
+
+    def __init__(self):
+        self.calls = []
+        self.children = []
+
+    def __getattr__(self, name):
+        def call(*args, **kwargs):
+            self.calls.append((name, args, kwargs))
+            child = StandInLayout()
+            self.children.append(child)
+            return child
+        return call
+
+    def all_calls(self):
+        return self.calls + [c for child in self.children for c in child.all_calls()]
+
+
+class StandInPanel:
+    def __init__(self):
+        self.layout = StandInLayout()
+
+
 class PanelAndRedo(unittest.TestCase):
     def setUp(self):
         U.clear_scene()
         self.obj, self.empty, self.fixed, self.top = U.bar_with_handle()
 
     def test_an_active_handle_empty_keeps_the_mesh_panel(self):
-        from arap_deform import sessions, ui
+        sessions, ui = U.addon("sessions", "ui")
         bpy.context.view_layer.objects.active = self.empty
         self.assertIs(sessions.target_mesh(bpy.context), self.obj)
-        self.assertTrue(ui.ARAP_PT_main.poll(bpy.context))
+        self.assertTrue(shown(ui.ARAP_PT_solver, bpy.context))
         # ... and the panel's buttons act on that mesh.
         rest = U.coords(self.obj)
         self.empty.location.x += 0.5
@@ -212,10 +242,32 @@ class PanelAndRedo(unittest.TestCase):
         bpy.context.scene.collection.objects.link(other)
         bpy.context.view_layer.objects.active = other
         self.assertIsNone(sessions.target_mesh(bpy.context))
-        self.assertFalse(ui.ARAP_PT_main.poll(bpy.context))
+        self.assertFalse(ui.ARAP_PT_solver.poll(bpy.context))
+
+    def test_the_tab_is_there_without_a_mesh(self):
+        # Right after installing, with no mesh (or none active): the ARAP tab shows
+        # one line saying what to do; the sub-panels stay hidden.
+        ui, bake_ops = U.addon("ui", "bake_ops")
+        for active in (None, U.add_empty("Unrelated")):
+            bpy.context.view_layer.objects.active = active
+            self.assertTrue(shown(ui.ARAP_PT_main, bpy.context))
+            self.assertFalse(shown(ui.ARAP_PT_solver, bpy.context))
+            self.assertFalse(shown(bake_ops.ARAP_PT_bake, bpy.context))
+            panel = StandInPanel()
+            ui.ARAP_PT_main.draw(panel, bpy.context)
+            self.assertEqual(panel.layout.calls, [("label", (), {"text": "Select a mesh object to pose it",
+                                                                  "icon": 'INFO'})])
+        # With the mesh active, the same draw shows its settings, not the line.
+        bpy.context.view_layer.objects.active = self.obj
+        self.assertTrue(shown(ui.ARAP_PT_solver, bpy.context))
+        panel = StandInPanel()
+        ui.ARAP_PT_main.draw(panel, bpy.context)
+        texts = [kw.get("text") for _name, _args, kw in panel.layout.all_calls()]
+        self.assertNotIn("Select a mesh object to pose it", texts)
+        self.assertIn("Fixed Vertices", texts)
 
     def test_solver_settings_in_a_collapsed_sub_panel_with_plain_tooltips(self):
-        from arap_deform import properties, ui
+        properties, ui = U.addon("properties", "ui")
         self.assertEqual(ui.ARAP_PT_solver.bl_parent_id, "ARAP_PT_main")
         self.assertIn('DEFAULT_CLOSED', ui.ARAP_PT_solver.bl_options)
         for name in ("iterations", "live_iterations", "tolerance", "weights", "init", "acceleration", "threads"):

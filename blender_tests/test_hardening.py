@@ -12,7 +12,8 @@ import numpy as np
 from mathutils import Matrix
 
 import arap_test_utils as U
-from arap_deform import api, errors, live, native_loader, sessions
+
+api, errors, live, native_loader, sessions = U.addon("api", "errors", "live", "native_loader", "sessions")
 
 
 def tube_arrays():

@@ -6,7 +6,8 @@ import numpy as np
 from mathutils import Matrix
 
 import arap_test_utils as U
-from arap_deform import api, errors, live, sessions
+
+api, errors, live, sessions = U.addon("api", "errors", "live", "sessions")
 
 
 def move(empty, dx=0.0, dz=0.0):
@@ -49,7 +50,7 @@ class Live(unittest.TestCase):
         self.assertEqual(U.transform_channels(self.empty), channels)
 
     def test_viewport_status_while_live_runs(self):
-        from arap_deform import live_ops
+        live_ops = U.addon("live_ops")
         self.assertEqual(live_ops.live_status_lines(), [])
         s = api.start_session(self.obj, bpy.context.scene)
         s.step()
@@ -66,7 +67,7 @@ class Live(unittest.TestCase):
     def test_apply_and_cancel_buttons_leave_the_request_with_the_operators(self):
         # The panel's buttons call operators; the request waits in operators.py for the Live
         # modal operator (the session itself knows nothing of the UI).
-        from arap_deform import live_ops
+        live_ops = U.addon("live_ops")
         s = api.start_session(self.obj, bpy.context.scene)
         try:
             bpy.context.view_layer.objects.active = self.obj

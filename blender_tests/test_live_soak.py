@@ -10,7 +10,8 @@ import numpy as np
 from mathutils import Matrix
 
 import arap_test_utils as U
-from arap_deform import api
+
+api = U.addon("api")
 
 PERIOD = 50   # steps per lap of the Empty's path
 LAPS = 120    # 6000 steps

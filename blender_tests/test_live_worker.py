@@ -9,7 +9,7 @@ import numpy as np
 from mathutils import Matrix
 
 import arap_test_utils as U
-from arap_deform import api, engine, live_ops, native_loader, sessions
+api, engine, live_ops, native_loader, sessions = U.addon("api", "engine", "live_ops", "native_loader", "sessions")
 
 GIVE_UP_S = 120.0
 

@@ -9,7 +9,9 @@ import unittest
 
 import numpy as np
 
-from arap_deform import errors, native_loader
+import arap_test_utils as U
+
+errors, native_loader = U.addon("errors", "native_loader")
 
 
 class NativeBridge(unittest.TestCase):
@@ -22,7 +24,7 @@ class NativeBridge(unittest.TestCase):
     def test_settings_agree_with_the_core_options(self):
         # The core defines each option's default and limits (arap::option_specs(), OPTIONS); the
         # object's settings start at those defaults and never allow a value the core refuses.
-        from arap_deform import problem, properties
+        problem, properties = U.addon("problem", "properties")
         options = native_loader.native().OPTIONS
         props = properties.ARAP_PG_settings.__annotations__
 

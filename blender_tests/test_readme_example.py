@@ -17,20 +17,56 @@ def readme_python_blocks():
     return re.findall(r"```python\n(.*?)```", text, re.S)
 
 
+def readme_block(marker):
+    """The one README Python block that contains `marker`."""
+    blocks = [b for b in readme_python_blocks() if marker in b]
+    if len(blocks) != 1:
+        raise AssertionError("%d README blocks contain %r, expected one" % (len(blocks), marker))
+    return blocks[0]
+
+
+def loading_recipe():
+    """The README's lines that import the add-on's api module on any Blender."""
+    return readme_block("importlib.import_module(name + \".api\")")
+
+
 class ReadmeExample(unittest.TestCase):
     def setUp(self):
         U.clear_scene()
 
+    def test_loading_recipe_finds_the_enabled_addon(self):
+        # In a Blender with the add-on enabled (ctest: the extension on 4.2+),
+        # the recipe reaches the loaded module and does not register it again
+        # (which would stop a running Live session).
+        api, sessions = U.addon("api", "sessions")
+        obj = U.bar_with_handle()[0]
+        session = api.start_session(obj, bpy.context.scene)
+        try:
+            namespace = {"__name__": "readme_recipe"}
+            exec(compile(loading_recipe(), "README.md", "exec"), namespace)
+            self.assertEqual(namespace["name"], U.ADDON_MODULE)
+            self.assertIs(namespace["api"], api)
+            self.assertIs(sessions.session_for(obj), session)
+        finally:
+            session.cancel()
+
+    def test_api_docstring_gives_the_same_recipe(self):
+        def code(text):
+            return [line.split("#")[0].strip() for line in text.splitlines() if line.split("#")[0].strip()]
+        recipe, doc = code(loading_recipe()), code(U.addon("api").__doc__)
+        self.assertIn(recipe[0], doc)
+        start = doc.index(recipe[0])
+        self.assertEqual(doc[start:start + len(recipe)], recipe)
+
     def test_scripting_example_poses_the_mesh(self):
-        blocks = [b for b in readme_python_blocks() if "api.deform(obj)" in b]
-        self.assertEqual(len(blocks), 1, "the README's scripting example was not found")
         body = U.add_cylinder(name="Body")
         rest = U.coords(body)
         z = rest[:, 2]
         namespace = {"feet_indices": np.flatnonzero(z < z.min() + 0.5),
                      "hand_indices": np.flatnonzero(z > z.max() - 0.3),
                      "__name__": "readme_example"}
-        exec(compile(blocks[0], "README.md", "exec"), namespace)
+        exec(compile(loading_recipe(), "README.md", "exec"), namespace)
+        exec(compile(readme_block("api.deform(obj)"), "README.md", "exec"), namespace)
         result = namespace["result"]
         posed = U.coords(body)
         self.assertTrue(np.isfinite(posed).all())
@@ -42,18 +78,18 @@ class ReadmeExample(unittest.TestCase):
 
     def test_scripting_example_in_a_factory_startup_blender(self):
         # How batch runs and CI start Blender: nothing enabled. The README's
-        # "Loading the add-on" lines, then the API, in a new Blender process.
-        blocks = [b for b in readme_python_blocks() if "addon_utils.enable" in b]
-        self.assertEqual(len(blocks), 1, "the README's loading snippet was not found")
-        script = blocks[0] + textwrap.dedent("""
+        # loading recipe, then the API, in a new Blender process, which finds the
+        # add-on as it is installed here (the extension on 4.2+).
+        script = loading_recipe() + textwrap.dedent("""
+            import bpy
             bpy.ops.mesh.primitive_cylinder_add()
             obj = bpy.context.active_object
             api.create_group(obj, "bottom", [v.index for v in obj.data.vertices if v.co.z < 0])
             api.set_fixed(obj, "bottom")
-            print("FACTORY STARTUP API OK", obj.arap.fixed_group)
+            print("FACTORY STARTUP API OK", api.__name__, obj.arap.fixed_group)
             """)
         out = U.run_blender_script(script, factory_startup=True)
-        self.assertIn("FACTORY STARTUP API OK bottom", out)
+        self.assertIn("FACTORY STARTUP API OK %s.api bottom" % U.ADDON_MODULE, out)
 
 
 if __name__ == "__main__":

@@ -30,20 +30,47 @@ class Registration(unittest.TestCase):
         self.assertTrue(hasattr(bpy.types, "ARAP_UL_handles"))
         self.assertIn("ARAP_PG_settings", arap_classes())
 
-    def test_public_name_for_scripts(self):
-        # `from arap_deform import api` reaches the loaded add-on, also when Blender
-        # loaded it as an extension (bl_ext.user_default.arap_deform).
-        import arap_deform
-        from arap_deform import api
-        self.assertIs(arap_deform, sys.modules[U.ADDON_MODULE])
-        self.assertIs(api, sys.modules[U.ADDON_MODULE + ".api"])
+    def test_modules_only_under_the_addon_name(self):
+        # Blender 4.2+ loads the add-on as bl_ext.<repository>.arap_deform; its
+        # extension policy forbids its files under any other name in sys.modules.
+        self.assertIn(U.ADDON_MODULE + ".api", sys.modules)
+        self.assertEqual(U.modules_under_other_names(), {})
         if U.ADDON_MODULE != "arap_deform":
-            U.disable_addon()
             self.assertNotIn("arap_deform", sys.modules)
-            self.assertNotIn("arap_deform.api", sys.modules)
+        for _ in range(2):  # and after a disable/enable cycle (Blender reloads the package)
+            U.disable_addon()
+            U.enable_addon()
+        self.assertEqual(U.modules_under_other_names(), {})
+
+    def test_the_module_check_finds_an_alias(self):
+        # The check above can fail: an alias of a submodule, and one of a copy
+        # loaded from the add-on's file, are both found.
+        import importlib.util
+        api = U.addon("api")
+        spec = importlib.util.spec_from_file_location("arap_probe_copy", sys.modules[U.ADDON_MODULE].__file__)
+        copy = importlib.util.module_from_spec(spec)
+        sys.modules["arap_probe_alias"], sys.modules["arap_probe_copy"] = api, copy
+        try:
+            self.assertEqual(sorted(U.modules_under_other_names()), ["arap_probe_alias", "arap_probe_copy"])
+        finally:
+            del sys.modules["arap_probe_alias"], sys.modules["arap_probe_copy"]
+
+    @unittest.skipIf(bpy.app.version < (4, 2), "extensions and their policy start with Blender 4.2")
+    def test_no_extension_policy_warnings(self):
+        # What the Preferences show under a warning sign ("Policy violation with top
+        # level module: ...") for the extension; Blender reports an alias, too.
+        self.assertTrue(U.ADDON_MODULE.startswith("bl_ext."), U.ADDON_MODULE)
+        self.assertEqual(U.extension_policy_warnings(), [])
+        sys.modules["arap_probe_alias"] = U.addon("api")
+        try:
+            self.assertEqual(U.extension_policy_warnings(),
+                             ["Policy violation with top level module: arap_probe_alias"])
+        finally:
+            del sys.modules["arap_probe_alias"]
+        self.assertEqual(U.extension_policy_warnings(), [])
 
     def test_operators_documented_and_in_menus(self):
-        from arap_deform import operators
+        operators = U.addon("operators")
         for cls in operators.classes:
             self.assertTrue(cls.__doc__ and cls.__doc__.strip(), cls.__name__)
             self.assertTrue(cls.bl_idname.startswith("object.arap_"), cls.bl_idname)

@@ -12,7 +12,8 @@ import numpy as np
 from mathutils import Matrix
 
 import arap_test_utils as U
-from arap_deform import api, auto, bake, native_loader, solver_cache
+
+api, auto, bake, native_loader, solver_cache = U.addon("api", "auto", "bake", "native_loader", "solver_cache")
 
 BIND = Matrix.Translation((0.0, 0.0, 2.0))   # the Empty's bind pose (U.bar_with_handle)
 POSE = Matrix.Translation((1.6, 0.0, 0.9))   # the top of the 4-high bar pulled sideways and down

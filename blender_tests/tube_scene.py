@@ -12,16 +12,16 @@ from mathutils import Matrix, Vector
 
 
 def load_addon(addon_dir):
-    """Register the add-on from `addon_dir` (a staged build/addon), or enable the installed one."""
+    """Register the add-on from `addon_dir` (a staged build/addon) as the plain
+    package arap_deform, or enable the installed one (ARAP_ADDON_MODULE); then
+    arap_test_utils.addon() reaches it."""
+    import arap_test_utils as U
     if addon_dir:
         sys.path.insert(0, os.path.abspath(addon_dir))
-        import arap_deform
-        arap_deform.register()
-    else:
-        import addon_utils
-        module = os.environ.get("ARAP_ADDON_MODULE", "arap_deform")
-        if addon_utils.enable(module, default_set=True) is None:
-            raise SystemExit("could not enable %s (give --addon-dir or set BLENDER_USER_SCRIPTS)" % module)
+        U.ADDON_MODULE = "arap_deform"
+        U.addon().register()
+    elif U.enable_addon() is None:
+        raise SystemExit("could not enable %s (give --addon-dir or set BLENDER_USER_SCRIPTS)" % U.ADDON_MODULE)
 
 
 def clear_scene():

@@ -4,8 +4,9 @@
 # --python <runner> -- <args>` as one ctest entry. The exit-code flag must come
 # before --python, otherwise a Python error still exits 0. Exit code 77 (run.py: every
 # test skipped) makes ctest report the entry as skipped, not passed.
-# The add-on is found through BLENDER_USER_SCRIPTS (see blender_tests/CMakeLists.txt);
-# BLENDER_USER_CONFIG points at a scratch folder so the user's preferences are never read or written.
+# The add-on is found through BLENDER_USER_SCRIPTS (3.x) or BLENDER_USER_EXTENSIONS (4.2+), see
+# blender_tests/CMakeLists.txt; BLENDER_USER_CONFIG points at a scratch folder so the user's preferences
+# are never read or written.
 function(arap_add_blender_test)
   cmake_parse_arguments(T "WILL_FAIL" "NAME;SCRIPT;TIMEOUT" "ARGS;LABELS;ENVIRONMENT" ${ARGN})
   if(NOT T_TIMEOUT)

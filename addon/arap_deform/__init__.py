@@ -26,36 +26,17 @@ if "bpy" in locals():
         if _name in locals():
             importlib.reload(locals()[_name])
 
-import sys  # noqa: E402
-
 import bpy  # noqa: E402,F401 - its presence in locals() marks a reload
 
 from . import properties, operators, deform_ops, live_ops, ui, bake_ops, auto, api, status_overlay  # noqa: E402
 
 # Order matters: bake_ops' panel is a child of ui's ARAP_PT_main; auto adds Blender handlers.
 _modules = (properties, operators, deform_ops, live_ops, ui, bake_ops, auto, status_overlay)
-PUBLIC_NAME = "arap_deform"
-
-
-def _script_aliases():
-    """{public module name: module} that make `from arap_deform import api`
-    work in scripts when Blender 4.2+ loaded us as an extension
-    (bl_ext.<repository>.arap_deform); empty for the legacy add-on."""
-    if __name__ == PUBLIC_NAME:
-        return {}
-    prefix = __name__ + "."
-    aliases = {PUBLIC_NAME: sys.modules[__name__]}
-    for name, module in list(sys.modules.items()):
-        if name.startswith(prefix) and module is not None:
-            aliases[PUBLIC_NAME + "." + name[len(prefix):]] = module
-    return aliases
 
 
 def register():
     for mod in _modules:
         mod.register()
-    for name, module in _script_aliases().items():
-        sys.modules.setdefault(name, module)
 
 
 def unregister():
@@ -65,6 +46,3 @@ def unregister():
     live_ops.live_status_off()
     for mod in reversed(_modules):
         mod.unregister()
-    for name, module in _script_aliases().items():
-        if sys.modules.get(name) is module:
-            del sys.modules[name]

@@ -1,8 +1,23 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Plain Python API of ARAP Deform, for scripts and --background runs.
 
+Blender 3.x loads the add-on as "arap_deform", 4.2+ as the extension
+"bl_ext.<repository>.arap_deform" (only under that name), so a script imports
+this module through the name Blender gave the add-on, enabling it when it is
+off (as in `blender --factory-startup`; enabling an enabled add-on registers it
+again):
+
+    import addon_utils
+    import importlib
+
+    name = next(mod.__name__ for mod in addon_utils.modules() if mod.__name__.rpartition(".")[2] == "arap_deform")
+    if not addon_utils.check(name)[1]:
+        addon_utils.enable(name, default_set=True)
+    api = importlib.import_module(name + ".api")
+
+Then:
+
     import bpy
-    from arap_deform import api
     obj = bpy.data.objects["Suzanne"]
     api.set_fixed(obj, "feet")
     api.add_handle(obj, "hand", bpy.data.objects["HandEmpty"])   # bind pose = the empty now

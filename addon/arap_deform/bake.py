@@ -1,11 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Bake ARAP poses over a frame range so that Blender plays them back natively.
 
-    from arap_deform import bake
-    result = bake.bake_shape_keys(obj, 1, 100)            # one shape key per frame
-    result = bake.bake_pc2(obj, "//pose.pc2", 1, 100)     # a point cache + Mesh Cache modifier
+    result = api.bake_shape_keys(obj, 1, 100)             # one shape key per frame
+    result = api.bake_pc2(obj, "//pose.pc2", 1, 100)      # a point cache + Mesh Cache modifier
     print(result.energies, result.iterations, result.ms)
-    bake.clear_bake(obj)                                  # back to the un-baked object
+    api.clear_bake(obj)                                   # back to the un-baked object
+
+(api re-exports these; api.py says how a script imports it.)
 
 Each frame: scene.frame_set(f), read the evaluated world matrices of the
 object and of the handle empties (keyframes, constraints and drivers all

@@ -20,6 +20,13 @@ OUTPUT_ITEMS = (
 )
 
 
+# A FILE_PATH property that takes "//" (next to the .blend) must say so on newer
+# Blenders (5.2), which warn at every such value otherwise; older ones (3.4, 4.3)
+# refuse the flag and drop the property, so ask Blender whether it knows it.
+BLEND_RELATIVE = ({"options": {'ANIMATABLE', 'PATH_SUPPORTS_BLEND_RELATIVE'}}
+                  if "is_path_supports_blend_relative" in bpy.types.Property.bl_rna.properties else {})
+
+
 def _default_pc2(obj):
     return "//%s_arap.pc2" % bpy.path.clean_name(obj.name)
 
@@ -106,7 +113,7 @@ class ARAP_OT_bake(bpy.types.Operator):
     output: EnumProperty(name="Output", description="Where the baked poses go", items=OUTPUT_ITEMS,
                          default='SHAPE_KEYS')
     filepath: StringProperty(name="File", description="The .pc2 file to write (empty: //<object>_arap.pc2)",
-                             subtype='FILE_PATH', default="")
+                             subtype='FILE_PATH', default="", **BLEND_RELATIVE)
 
     @classmethod
     def poll(cls, context):

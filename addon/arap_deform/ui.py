@@ -17,6 +17,9 @@ class ARAP_UL_handles(bpy.types.UIList):
         split.label(text=item.empty.name if item.empty is not None else "(no Empty)")
 
 
+NO_MESH_HINT = "Select a mesh object to pose it"
+
+
 def panel_object(context):
     """The mesh the panel shows (sessions.target_mesh: the active mesh, or the
     posed mesh of an active handle Empty)."""
@@ -29,14 +32,14 @@ class ARAP_PT_main(bpy.types.Panel):
     bl_space_type = 'VIEW_3D'
     bl_region_type = 'UI'
     bl_category = "ARAP"
-
-    @classmethod
-    def poll(cls, context):
-        return panel_object(context) is not None
+    # No poll: the tab is always there, so a new user sees the add-on before choosing a mesh.
 
     def draw(self, context):
         layout = self.layout
         obj = panel_object(context)
+        if obj is None:
+            layout.label(text=NO_MESH_HINT, icon='INFO')
+            return
         s = obj.arap
         session = sessions.session_for(obj)
         if obj != context.active_object:

@@ -107,7 +107,8 @@ def run(gui):
     x, top = s0["sidebar_tabs"]
     gui.xdo("mousemove", str(x - 120), str(top + 120))   # over the sidebar: it redraws
     gui.wait("the panel to stay while the Empty is active",
-             lambda s: s.get("panel_draws", 0) > draws and s.get("panel_active") == "TopEmpty")
+             lambda s: s.get("panel_draws", 0) > draws and s.get("panel_active") == "TopEmpty"
+             and s.get("panel_mesh") == "Bar")
     print("the ARAP panel stays with the Empty active")
     # Each G move made while Live ran is its own undo step (Blender's transform
     # pushes it, with the mesh as Live had it then); the set-up is the step before.

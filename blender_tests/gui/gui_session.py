@@ -13,13 +13,14 @@ import os
 import sys
 import traceback
 
-import addon_utils
 import bmesh
 import bpy
 import numpy as np
 from mathutils import Matrix
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.dirname(HERE)]
+import arap_test_utils as U  # noqa: E402
 import session_files  # noqa: E402
 
 OUT = sys.argv[sys.argv.index("--") + 1]
@@ -47,8 +48,8 @@ def add_bar(name, around, cuts, x=0.0):
 
 
 def setup():
-    addon_utils.enable(os.environ.get("ARAP_ADDON_MODULE", "arap_deform"), default_set=True)
-    from arap_deform import api
+    U.enable_addon()
+    api = U.addon("api")
     for ob in list(bpy.data.objects):
         bpy.data.objects.remove(ob)
     obj = add_bar("Bar", around=16, cuts=12)
@@ -88,6 +89,8 @@ def panel_drawn(_panel, context):
     STATE["panel_drawn"] = True
     STATE["panel_draws"] = STATE.get("panel_draws", 0) + 1
     STATE["panel_active"] = context.active_object.name if context.active_object else None
+    mesh = U.addon("ui").panel_object(context)  # None: the panel shows only its "select a mesh" line
+    STATE["panel_mesh"] = mesh.name if mesh is not None else None
 
 
 def coords_hash(obj):
@@ -152,7 +155,7 @@ def big_deform():
     """A finer tube (about 30k vertices), its top pulled aside, with settings that keep Deform busy
     for minutes (the textbook method, tolerance 0, a high cap); Deform invoked as the panel's button
     does."""
-    from arap_deform import api
+    api = U.addon("api")
     if "Big" not in bpy.data.objects:
         big = add_bar("Big", around=128, cuts=240, x=1.5)
         api.set_fixed(big, "bottom")
@@ -173,7 +176,7 @@ def big_deform():
 
 
 def write_state():
-    from arap_deform import deform_ops, live_ops, sessions, status_overlay
+    deform_ops, live_ops, sessions, status_overlay = U.addon("deform_ops", "live_ops", "sessions", "status_overlay")
     obj = bpy.data.objects.get("Bar")
     if obj is not None and STATE["ready"]:
         co = np.empty(len(obj.data.vertices) * 3, np.float32)

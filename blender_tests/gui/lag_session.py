@@ -23,6 +23,7 @@ from mathutils import Vector
 OUT, ADDON_DIR, VERTICES = sys.argv[sys.argv.index("--") + 1:][:3]
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path[:0] = [HERE, os.path.join(HERE, "..")]
+import arap_test_utils as U  # noqa: E402
 import session_files  # noqa: E402
 from tube_scene import add_empty, add_group, clear_scene, load_addon, make_tube  # noqa: E402
 
@@ -49,8 +50,7 @@ def instrument(live):
 
 def setup():
     load_addon(ADDON_DIR)
-    import arap_deform
-    from arap_deform import api, live
+    api, live = U.addon("api", "live")
     instrument(live)
     clear_scene()
     obj, fixed, top, h = make_tube("Tube", int(VERTICES))
@@ -70,13 +70,12 @@ def setup():
     bpy.types.SpaceView3D.draw_handler_add(on_draw, (), 'WINDOW', 'POST_PIXEL')
     bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
     STATE["vertices"] = len(obj.data.vertices)
-    STATE["addon"] = os.path.dirname(arap_deform.__file__)
+    STATE["addon"] = os.path.dirname(U.addon().__file__)
     STATE["ready"] = True
 
 
 def session():
-    from arap_deform import sessions
-    return sessions.any_session()
+    return U.addon("sessions").any_session()
 
 
 def on_draw():
