@@ -176,18 +176,20 @@ class Bake(unittest.TestCase):
         self.assertEqual(os.listdir(self.tmp), [])  # the streamed .pc2 temporary file is gone
 
     def test_interactive_bake_shows_frames_then_writes_the_bake(self):
-        # What the modal operator runs each tick: every solved frame is shown on
-        # the mesh, the status bar draws the progress, and the result equals a
-        # synchronous bake's (the preview is undone before writing).
+        # What the modal operator runs each tick: the frames are solved on the worker's thread,
+        # the newest solved one is shown on the mesh, the status shows the progress, and the result
+        # equals a synchronous bake's bit for bit (the preview is undone before writing).
         run = bake_ops.InteractiveBake(bake.Baker(self.obj, 1, 4))
         self.assertIs(bake_ops.InteractiveBake.current, run)
-        shown = []
-        while not run.step():
-            shown.append(U.raw_coords(self.obj).copy())
+        shown = {}
+        while not run.step(slice_ms=0.0):      # one frame posted or taken a tick
+            if run.baker.index:
+                shown[run.baker.index] = U.raw_coords(self.obj).copy()
             self.assertIn("of 4", run.status())
-        self.assertEqual(len(shown), 3)
-        np.testing.assert_array_equal(shown[-1], run.baker.positions[2].ravel())
-        self.assertGreater(np.abs(shown[-1] - self.rest).max(), 0.1)  # the viewport shows the pose
+        self.assertTrue(shown)
+        for solved, coords in shown.items():   # the mesh shows the newest solved frame
+            np.testing.assert_array_equal(coords, run.baker.positions[solved - 1].ravel())
+            self.assertGreater(np.abs(coords - self.rest).max(), 0.1)
         self.assertEqual(run.fraction, 1.0)
         result = run.finish(lambda baker: baker.write_shape_keys())
         self.assertIsNone(bake_ops.InteractiveBake.current)
@@ -195,10 +197,17 @@ class Bake(unittest.TestCase):
         reference = bake.bake_shape_keys(self.obj, 1, 4)
         np.testing.assert_array_equal(result.positions, reference.positions)
 
+    def test_a_tick_takes_every_frame_that_comes_back_in_its_slice(self):
+        run = bake_ops.InteractiveBake(bake.Baker(self.obj, 1, 6))
+        self.assertTrue(run.step(slice_ms=60000.0))   # a small mesh: all six frames in one tick
+        np.testing.assert_array_equal(U.raw_coords(self.obj), run.baker.positions[5].ravel())
+        run.cancel()
+        self.assert_rest_untouched()
+
     def test_interactive_bake_cancel_restores_the_mesh(self):
         run = bake_ops.InteractiveBake(bake.Baker(self.obj, 1, 10))
-        run.step()
-        run.step()
+        while run.baker.index < 2:
+            run.step(slice_ms=0.0)
         self.assertFalse(np.array_equal(U.raw_coords(self.obj), self.rest))
         run.cancel()
         self.assertIsNone(bake_ops.InteractiveBake.current)
@@ -206,6 +215,7 @@ class Bake(unittest.TestCase):
         self.assertEqual(bpy.context.scene.frame_current, 1)
         self.assert_rest_untouched()
         self.assertFalse(self.obj.data.attributes.get("arap_rest"))
+        self.assertFalse(run.baker.solver.busy)
 
     def test_status_bar_draws_a_progress_bar(self):
         class Layout:  # records what draw_status_bar asks of the status bar's layout
@@ -222,7 +232,8 @@ class Bake(unittest.TestCase):
         bake_ops.draw_status_bar(header, bpy.context)
         self.assertEqual(header.layout.calls, [])  # nothing while no bake runs
         run = bake_ops.InteractiveBake(bake.Baker(self.obj, 1, 4))
-        run.step()
+        while run.baker.index < 1:
+            run.step(slice_ms=0.0)   # no waiting: at most the frame in hand comes back a tick
         bake_ops.draw_status_bar(header, bpy.context)
         kind, kw = header.layout.calls[-1]
         self.assertEqual(kind, "progress")

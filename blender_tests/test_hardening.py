@@ -30,6 +30,16 @@ def tube_arrays():
     return rest, np.array(tris), constrained
 
 
+
+def flip_a_face(obj):
+    """Reverse one face's corners: the same vertex count, edges and faces, other connectivity."""
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bm.faces.ensure_lookup_table()
+    bm.faces[3].normal_flip()
+    bm.to_mesh(obj.data)
+    bm.free()
+
 class ModuleCalls(unittest.TestCase):
     """The native module called directly with what a script could pass it."""
 
@@ -310,15 +320,31 @@ class BlenderSetups(unittest.TestCase):
         self.assertIsNone(sessions.session_for(self.obj))
         self.assertNotIn("arap_rest", self.obj.data.attributes)
         s = api.start_session(self.obj, bpy.context.scene)
-        bm = bmesh.new()
-        bm.from_mesh(self.obj.data)
-        bm.faces.ensure_lookup_table()
-        bm.faces[3].normal_flip()
-        bm.to_mesh(self.obj.data)
-        bm.free()
+        flip_a_face(self.obj)
         time.sleep(live.TOPOLOGY_CHECK_S)
         with self.assertRaises(errors.SessionError) as cm:
             s.step()
+        self.assertEqual(cm.exception.kind, 'TOPOLOGY')
+        sessions.stop_session(s)
+
+    def test_where_reading_the_corners_is_slow_they_are_compared_once_the_pose_settles(self):
+        # Blender 3.4 reads a big mesh's corners in tens of milliseconds: an update that moves the
+        # pose only compares counts, a settled one the corners as well.
+        s = api.start_session(self.obj, bpy.context.scene)
+        s.topology.cheap = False
+        self.empty.location.x += 0.5
+        bpy.context.view_layer.update()
+        s.solver.max_iterations = 1
+        s.step()
+        self.assertFalse(s.converged)
+        flip_a_face(self.obj)
+        s._next_topology_check = 0.0     # a check is due
+        s.step()                         # not settled: counts only
+        s.solver.max_iterations = 1000
+        with self.assertRaises(errors.SessionError) as cm:
+            for _ in range(100):
+                s.step()
+                s._next_topology_check = 0.0
         self.assertEqual(cm.exception.kind, 'TOPOLOGY')
         sessions.stop_session(s)
 

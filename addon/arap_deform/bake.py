@@ -119,9 +119,10 @@ def bake_rest(obj):
 
 class Baker:
     """Solves frames start..end one step() at a time; changes nothing in the
-    scene until write_shape_keys() / write_pc2_cache(). The modal operator
-    drives it one frame per timer tick; bake_shape_keys() / bake_pc2() loop
-    over it. With pc2_path, frames are streamed to a temporary file (memory
+    scene until write_shape_keys() / write_pc2_cache(). bake_shape_keys() /
+    bake_pc2() loop over step(); the modal operator hands each frame's solve
+    to a worker thread instead (post_frame(), take_frame()), with the same
+    results. With pc2_path, frames are streamed to a temporary file (memory
     stays one frame) that write_pc2_cache() renames and cancel() removes;
     otherwise they are kept in memory for the shape keys.
     """
@@ -183,28 +184,53 @@ class Baker:
         return float(np.linalg.norm(g[self.free], axis=1).max()) if self.free.any() else 0.0
 
     def step(self):
-        """Solve the next frame; returns its frame number."""
-        f = self.frames[self.index]
-        t0 = time.perf_counter()
-        self.scene.frame_set(f)
+        """Solve the next frame here; returns its frame number."""
+        f = self._begin_frame()
         targets = self._targets()
         if self.measure_gradient and self.index == 0:
             guess = self.rest64.copy()
             guess[self.setup.constrained] = targets
             self.result.gradient_reference = self._gradient(guess)
-        out = self.positions[0 if self.pc2 else self.index]
-        stats = self.solver.solve(targets, out=out)
+        out = self._out()
+        self._record(out, self.solver.solve(targets, out=out))
+        return f
+
+    def post_frame(self, worker):
+        """Go to the next frame and hand its solve to `worker` (a SolveWorker of self.solver whose
+        max_iterations is the solver's: one solve, the same arithmetic as step()); returns the frame."""
+        f = self._begin_frame()
+        worker.post(self._targets())
+        return f
+
+    def take_frame(self, worker):
+        """Record the frame post_frame() handed over once `worker` has solved it: True then."""
+        out = self._out()
+        result = worker.take(out)
+        if result is None:
+            return False
+        self._record(out, result.stats)
+        return True
+
+    def _begin_frame(self):
+        f = self.frames[self.index]
+        self._frame_started = time.perf_counter()
+        self.scene.frame_set(f)
+        return f
+
+    def _out(self):
+        return self.positions[0 if self.pc2 else self.index]
+
+    def _record(self, out, stats):
         if self.pc2:
             self.pc2.add(out)
         r = self.result
-        r.ms.append((time.perf_counter() - t0) * 1e3)
+        r.ms.append((time.perf_counter() - self._frame_started) * 1e3)
         r.energies.append(stats.energy[-1] if stats.energy else stats.initial_energy)
         r.iterations.append(stats.iterations)
         r.converged.append(stats.converged)
         if self.measure_gradient:
             r.gradients.append(self._gradient(self.solver.positions()))
         self.index += 1
-        return f
 
     def run(self, progress=None):
         """Solve every remaining frame; progress(done, total) after each."""

@@ -1,18 +1,25 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Bake operator and its sub-panel: a thin shell around bake.Baker.
 
-Interactive runs are modal (one frame per timer tick, see InteractiveBake:
-each frame is shown in the viewport as it is solved, with a progress bar in
-the status bar; Esc cancels and nothing is changed); in --background (no
-event loop) and from the redo panel the bake runs synchronously in execute(),
+Interactive runs are modal (see InteractiveBake): the frames are solved on a
+worker thread, the newest one is shown in the viewport as it comes, with a
+progress bar in the status bar and the frame in the viewport's corner; Esc
+cancels and nothing is changed. In --background (no event loop) and from the
+redo panel the bake runs synchronously in execute(),
 so scripts can call
 bpy.ops.object.arap_bake(frame_start=1, frame_end=100, output='PC2', filepath="//pose.pc2").
 """
+
+import time
 
 import bpy
 from bpy.props import EnumProperty, IntProperty, StringProperty
 
 from . import bake, errors, meshio, sessions, status_overlay, ui
+from .native_loader import native
+
+TICK_S = 1.0 / 60.0     # the modal's timer
+TICK_SLICE_MS = 8.0     # how long a tick waits for frames the worker solves (Blender's thread is held meanwhile)
 
 OUTPUT_ITEMS = (
     ('SHAPE_KEYS', "Shape Keys", "One shape key per frame (ARAP_f0001...), keyed on at its frame"),
@@ -33,9 +40,10 @@ def _default_pc2(obj):
 
 class InteractiveBake:
     """What the modal bake does each tick, as plain logic (tested in --background):
-    solve the next frame, show it on the mesh (a preview, undone before the
-    bake writes its result or when it is cancelled: the mesh comes back bit for
-    bit) and publish the progress the status bar draws."""
+    hand the next frame's solve to the worker thread, show each solved frame on
+    the mesh (a preview, undone before the bake writes its result or when it is
+    cancelled: the mesh comes back bit for bit) and publish the progress the
+    status bar and the viewport draw."""
 
     current = None   # the running InteractiveBake, read by draw_status_bar
 
@@ -45,6 +53,8 @@ class InteractiveBake:
         self.snapshot = meshio.Snapshot(obj)
         self.preview = meshio.Output(obj, meshio.resolve_output(obj, obj.arap.output))
         self.preview.ensure()
+        self.worker = native().SolveWorker(baker.solver, max_iterations=baker.solver.max_iterations)
+        self.posted = False      # a frame's solve is with the worker
         InteractiveBake.current = self
 
     @property
@@ -60,13 +70,27 @@ class InteractiveBake:
         """The progress bar's own text: short enough for its width."""
         return "%d/%d" % (self.baker.index, len(self.baker.frames))
 
-    def step(self):
-        """Solve and show one frame; True when every frame is solved."""
-        self.baker.step()
-        self.preview.write(self.baker.last_positions.ravel())
+    def step(self, slice_ms=TICK_SLICE_MS):
+        """One tick: frames go to the worker one after the other while they come back within
+        `slice_ms` (small meshes: many frames a tick); the last one solved is shown. True when every
+        frame is solved."""
+        end = time.perf_counter() + slice_ms / 1e3
+        solved = False
+        while not self.baker.done:
+            if not self.posted:
+                self.baker.post_frame(self.worker)
+                self.posted = True
+            if not self.worker.wait(max(0.0, (end - time.perf_counter()) * 1e3)):
+                break
+            if self.baker.take_frame(self.worker):
+                self.posted = False
+                solved = True
+        if solved:
+            self.preview.write(self.baker.last_positions.ravel())
         return self.baker.done
 
     def _stop(self):
+        self.worker.stop()
         self.snapshot.restore()
         if InteractiveBake.current is self:
             InteractiveBake.current = None
@@ -185,7 +209,7 @@ class ARAP_OT_bake(bpy.types.Operator):
         except Exception as exc:  # noqa: BLE001
             return self._fail(exc)
         wm = context.window_manager
-        self._timer = wm.event_timer_add(0.001, window=context.window)
+        self._timer = wm.event_timer_add(TICK_S, window=context.window)
         wm.modal_handler_add(self)
         bpy.types.STATUSBAR_HT_header.append(draw_status_bar)
         status_overlay.add(bake_status_lines)

@@ -36,8 +36,9 @@ class FrameStats:
         return self.read_ms + self.write_ms
 
 
-# How often a Live session compares the faces in full (see meshio.Topology).
+# How often a Live session compares the faces' corners (see meshio.Topology and LiveSession.check).
 TOPOLOGY_CHECK_S = 1.0
+SLOW_TOPOLOGY_CHECK_S = 10.0
 # How many frame budgets a Live update may spend while the handles stand still and the pose settles
 # (3 x 16 ms: the viewport still redraws at about 20 frames a second).
 SETTLE_BUDGET_FACTOR = 3.0
@@ -100,9 +101,12 @@ class LiveSession:
         sessions.add(self)
 
     def check(self, full=False):
-        """Raise SessionError when the object can no longer be posed. The
-        faces are compared in full at most every TOPOLOGY_CHECK_S seconds (or
-        with `full`); element counts every time."""
+        """Raise SessionError when the object can no longer be posed. Element
+        counts are compared every time; the faces' corners every
+        TOPOLOGY_CHECK_S seconds where that is cheap (Blender 4.x, small
+        meshes), else only while the pose has settled, every
+        SLOW_TOPOLOGY_CHECK_S (an update that moves the pose stays short);
+        everything with `full` (Apply, after an undo)."""
         try:
             obj = self.obj
             n = len(obj.data.vertices)
@@ -113,12 +117,18 @@ class LiveSession:
             raise SessionError("The mesh's vertex count changed (%d -> %d): Live stopped"
                                % (self.n_vertices, n), 'TOPOLOGY')
         now = time.monotonic()
-        full = full or now >= self._next_topology_check
-        if not (self.topology.unchanged(obj.data) if full else self.topology.counts_match(obj.data)):
+        due = now >= self._next_topology_check and (self.topology.cheap or self.converged)
+        if full:
+            same = self.topology.unchanged(obj.data)
+        elif due:
+            same = self.topology.unchanged(obj.data, corners_only=True)
+        else:
+            same = self.topology.counts_match(obj.data)
+        if not same:
             raise SessionError("The mesh's faces changed (same vertex count, new connectivity): Live stopped",
                                'TOPOLOGY')
-        if full:
-            self._next_topology_check = now + TOPOLOGY_CHECK_S
+        if full or due:
+            self._next_topology_check = now + (TOPOLOGY_CHECK_S if self.topology.cheap else SLOW_TOPOLOGY_CHECK_S)
         if mode != 'OBJECT':
             raise SessionError("'%s' left Object Mode: Live stopped" % obj.name, 'MODE')
 

@@ -6,7 +6,7 @@
 # A tube of about <vertices> vertices (bottom fifth fixed, top 5 % on an
 # Empty), the add-on registered from <addon dir> (a staged build/addon). It
 # records, with time.monotonic() (the driver's clock too):
-#   updates  every Live update that changed the mesh: start and main-thread ms
+#   updates  every Live update that changed the mesh: start, main-thread ms, iterations, read and write ms
 #            (LiveSession.update, or step on versions that solved on the main thread)
 #   draws    every viewport redraw: time, the Empty's x, Live settled or not
 #   moves    every depsgraph update that moved the Empty (G applies each pointer event there): time, x
@@ -41,7 +41,8 @@ def instrument(live):
         t = time.monotonic()
         stats = original(self, *args, **kwargs)
         if stats is not None:
-            RECORD["updates"].append([t, (time.monotonic() - t) * 1e3, stats.iterations])
+            RECORD["updates"].append([t, (time.monotonic() - t) * 1e3, stats.iterations, stats.read_ms,
+                                      stats.write_ms])
         return stats
 
     setattr(cls, name, timed)

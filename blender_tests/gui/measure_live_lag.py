@@ -102,7 +102,7 @@ def measure(blender, addon_dir, vertices, out):
     lags, move_lags = lags_of(draws), lags_of(record["moves"])
     caught = next((t for t, x, _ in draws if t >= last_move and abs(x - x_end) <= 0.01 * abs(x_end - x0)), None)
     in_drag = [t for t, _, _ in draws if pointer[0][0] <= t <= last_move]
-    updates = [ms for t, ms, _ in record["updates"] if t >= pointer[0][0]]
+    updates = [u[1] for u in record["updates"] if u[0] >= pointer[0][0]]
     return {"vertices": s0["vertices"], "update_method": s0.get("update_method"),
             "update_ms_median": statistics.median(updates) if updates else float("nan"),
             "update_ms_p90": pct(updates, 0.9), "update_ms_max": max(updates, default=float("nan")),

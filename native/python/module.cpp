@@ -451,6 +451,14 @@ PYBIND11_MODULE(_arap_native, m) {
           py::arg("out"),
           "The newest finished solve, written into `out`, as a WorkerResult; None when none finished since\n"
           "the last take(). A solve that failed raises its error here.")
+      .def(
+          "wait",
+          [](const arap::SolveWorker& w, double timeout_ms) {
+            py::gil_scoped_release release;
+            return w.wait(timeout_ms);
+          },
+          py::arg("timeout_ms"),
+          "Wait at most timeout_ms for a finished solve not yet taken (or a failure): True when take() has one.")
       .def_property_readonly("progress",
                              [](const arap::SolveWorker& w) {
                                const arap::SolveProgress p = w.progress();

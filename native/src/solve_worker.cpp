@@ -1,7 +1,15 @@
 #include "arap/solve_worker.h"
 
+#include <cerrno>
+#include <chrono>
 #include <string>
 #include <utility>
+
+#if defined(__linux__)
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
 
 namespace arap {
 
@@ -49,6 +57,13 @@ bool SolveWorker::take(Result& result, const std::function<void(const Points&)>&
   return true;
 }
 
+bool SolveWorker::wait(double timeout_ms) const {
+  std::unique_lock<std::mutex> lock(mutex_);
+  const auto ready = [this] { return untaken_ || error_ != nullptr; };
+  if (!(timeout_ms > 0)) return ready();
+  return finished_.wait_for(lock, std::chrono::duration<double, std::milli>(timeout_ms), ready);
+}
+
 SolveProgress SolveWorker::progress() const { return solver_.progress(); }
 
 bool SolveWorker::settled() const {
@@ -69,7 +84,26 @@ void SolveWorker::stop() {
   solver_.release();
 }
 
+namespace {
+
+// The worker's nice value above the caller's: a user interface and its drawing (software OpenGL
+// draws on the CPU) come first, the solve takes the time they leave. On an idle core nothing changes.
+constexpr int kNiceAboveCaller = 10;
+
+void lower_this_threads_priority() {
+#if defined(__linux__)
+  // On Linux the nice value is per thread: this leaves the caller's threads as they are.
+  const id_t tid = static_cast<id_t>(syscall(SYS_gettid));
+  errno = 0;
+  const int now = getpriority(PRIO_PROCESS, tid);
+  if (errno == 0) setpriority(PRIO_PROCESS, tid, now + kNiceAboveCaller);
+#endif
+}
+
+}  // namespace
+
 void SolveWorker::run() {
+  lower_this_threads_priority();
   std::unique_lock<std::mutex> lock(mutex_);
   for (;;) {
     wake_.wait(lock, [this] { return quit_ || fresh_ || working_; });
@@ -93,6 +127,7 @@ void SolveWorker::run() {
     if (error) {
       error_ = error;
       working_ = false;
+      finished_.notify_all();
       continue;
     }
     spent_ += stats.iterations;
@@ -104,6 +139,7 @@ void SolveWorker::run() {
     result_.iterations = spent_;
     result_.settled = !working_ && !fresh_;
     untaken_ = true;
+    finished_.notify_all();
   }
 }
 

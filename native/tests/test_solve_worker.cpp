@@ -1,7 +1,15 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <dirent.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#include <fstream>
+#include <sstream>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "arap/solve_worker.h"
 #include "arap/solver.h"
@@ -58,6 +66,21 @@ TEST(SolveWorker, OneSolveOnItsThreadGivesTheSameBitsAsSolveOnTheCaller) {
   EXPECT_TRUE(result.stats.converged);
   EXPECT_EQ(result.iterations, direct.iterations);
   EXPECT_EQ(result.serial, 1);
+}
+
+TEST(SolveWorker, WaitReturnsWhenASolveIsReadyOrTheTimeIsUp) {
+  const BentTube t;
+  arap::Solver solver;
+  solver.bind(t.mesh.V, t.mesh.F, t.constrained, quasi_newton(300, 1e-8));
+  arap::SolveWorker worker(solver, 300);
+  EXPECT_FALSE(worker.wait(0.0));      // nothing posted: nothing to take
+  EXPECT_FALSE(worker.wait(5.0));
+  worker.post(t.targets);
+  ASSERT_TRUE(worker.wait(60000.0));
+  EXPECT_TRUE(worker.wait(0.0));       // still there until taken
+  arap::SolveWorker::Result result;
+  EXPECT_TRUE(worker.take(result, [](const arap::Points&) {}));
+  EXPECT_FALSE(worker.wait(0.0));
 }
 
 TEST(SolveWorker, ChunksOfIterationsGoOnUntilThePoseSettles) {
@@ -174,5 +197,41 @@ TEST(SolveWorker, ASolveThatFailsIsReportedByTake) {
   EXPECT_TRUE(worker.settled());
   EXPECT_FALSE(worker.take(result, [](const arap::Points&) {}));  // reported once
 }
+
+#if defined(__linux__)
+// The nice values of this process's threads, from /proc/self/task/<tid>/stat (field 19).
+std::vector<int> thread_nice_values() {
+  std::vector<int> out;
+  DIR* dir = opendir("/proc/self/task");
+  if (dir == nullptr) return out;
+  while (dirent* e = readdir(dir)) {
+    if (e->d_name[0] == '.') continue;
+    std::ifstream stat(std::string("/proc/self/task/") + e->d_name + "/stat");
+    std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+    const size_t close = text.rfind(')');   // the command name may hold spaces
+    if (close == std::string::npos) continue;
+    std::istringstream fields(text.substr(close + 2));
+    std::string field;
+    for (int k = 3; k <= 19 && fields >> field; ++k)
+      if (k == 19) out.push_back(std::stoi(field));
+  }
+  closedir(dir);
+  return out;
+}
+
+TEST(SolveWorker, ItsThreadRunsBelowTheCallersPriority) {
+  const BentTube t;
+  arap::Solver solver;
+  solver.bind(t.mesh.V, t.mesh.F, t.constrained, quasi_newton(1000000, 0.0));
+  const int caller = getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
+  arap::SolveWorker worker(solver, 1000000);
+  worker.post(t.targets);
+  while (worker.progress().iterations < 1) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  int lowered = 0;
+  for (int nice : thread_nice_values()) lowered += nice == std::min(caller + 10, 19);
+  EXPECT_EQ(lowered, 1);
+  worker.stop();
+}
+#endif
 
 }  // namespace

@@ -19,7 +19,9 @@ namespace arap {
 // sleeps until the next post(). New targets stop the solve in progress after
 // its current iteration (Solver::set_stop_requested) and the next solve starts
 // from where it stopped (a warm start, when the solver's options ask for one).
-// take() copies out the newest finished solve.
+// take() copies out the newest finished solve. The worker's thread runs at a
+// lower priority than the caller's (a nice value 10 higher on Linux), so that
+// on a busy machine the caller's user interface keeps its share of the CPU.
 //
 // While a SolveWorker exists its solver is busy(): nothing else may call it.
 class SolveWorker {
@@ -43,6 +45,9 @@ class SolveWorker {
   // solution (#V by 3, valid only during the call) and returns true. A solve that threw is
   // rethrown here, once; the worker then waits for new targets.
   bool take(Result& result, const std::function<void(const Points&)>& read);
+  // Waits at most `timeout_ms` for a finished solve not yet taken (or a failure to report):
+  // true when take() has one.
+  bool wait(double timeout_ms) const;
   // The solve in progress (iterations, energy).
   SolveProgress progress() const;
   int vertex_count() const { return solver_.vertex_count(); }
@@ -58,7 +63,8 @@ class SolveWorker {
   Solver& solver_;
   const int max_iterations_;
   mutable std::mutex mutex_;
-  std::condition_variable wake_;
+  std::condition_variable wake_;               // the worker: new targets, or quit
+  mutable std::condition_variable finished_;   // wait(): a solve finished or failed
   std::thread thread_;
   // Guarded by mutex_:
   Points pending_;             // the newest targets, not yet taken up by the worker
