@@ -61,7 +61,12 @@ bool SolveWorker::wait(double timeout_ms) const {
   std::unique_lock<std::mutex> lock(mutex_);
   const auto ready = [this] { return untaken_ || error_ != nullptr; };
   if (!(timeout_ms > 0)) return ready();
-  return finished_.wait_for(lock, std::chrono::duration<double, std::milli>(timeout_ms), ready);
+  // Against the system clock: a wait_for (steady clock) needs glibc 2.30's pthread_cond_clockwait, and the
+  // distributed module must load on glibc 2.17. A clock jump can only lengthen or shorten this short wait.
+  const auto deadline = std::chrono::system_clock::now() +
+                        std::chrono::duration_cast<std::chrono::system_clock::duration>(
+                            std::chrono::duration<double, std::milli>(timeout_ms));
+  return finished_.wait_until(lock, deadline, ready);
 }
 
 SolveProgress SolveWorker::progress() const { return solver_.progress(); }
