@@ -18,6 +18,10 @@ from gui_driver import WINDOW_HEIGHT, Fail, Gui, moved
 
 def run(gui):
     s0 = gui.wait("scene set-up", lambda s: s.get("ready") and "viewport_centre" in s, timeout=300)
+    if s0.get("aliases") or s0.get("policy_warnings"):
+        raise Fail("the add-on is under other module names %s or Blender lists policy warnings %s"
+                   % (s0.get("aliases"), s0.get("policy_warnings")))
+    print("installed clean: no module under another name, no policy warning")
     gui.settle()
     gui.xdo("key", "Escape")  # close the splash screen (Live is not running yet)
     gui.settle()
@@ -136,6 +140,7 @@ def run(gui):
         raise Fail("the redo panel does not show the values Deform used: %s" % redo)
     auto_mode(gui)
     big_deform(gui)
+    setup_undo(gui)
     shot_path = os.path.join(gui.out, "06_blender_screenshot.png")
     gui.command("cmd_screenshot", shot_path)
     gui.wait("Blender's own screenshot", lambda s: os.path.exists(shot_path))
@@ -179,6 +184,38 @@ def big_deform(gui):
     if any("ARAP Deform" in line for line in gui.settle().get("overlay", [])):
         raise Fail("Deform's progress stayed in the viewport after Esc")
     print("Esc stopped Deform; the mesh is untouched")
+
+
+def setup_undo(gui):
+    """Set Fixed, then Add Handle, pressed in Edit Mode; Ctrl+Z once takes the handle back and keeps the
+    fixed group; Set Fixed again reuses it (no ARAP_Fixed.001)."""
+    gui.command("cmd_rig")
+    s0 = gui.wait("the Rig in Edit Mode", lambda s: (s.get("rig") or {}).get("mode") == 'EDIT')
+    gui.xdo("mousemove", *map(str, s0["viewport_centre"]))
+    gui.xdo("key", "ctrl+alt+shift+f")
+    gui.wait("Set Fixed from Selection", lambda s: s["rig"]["fixed_group"] == "ARAP_Fixed")
+    gui.command("cmd_rig_top")
+    gui.settle()
+    gui.xdo("key", "ctrl+alt+shift+h")
+    s1 = gui.wait("Add Handle from Selection", lambda s: len(s["rig"]["handles"]) == 1)
+    print("the Rig's set-up:", s1["rig"])
+    if s1["rig"]["handles"] != [["ARAP_Handle_1", "Rig_ARAP_Handle_1"]]:
+        raise Fail("the new handle's names do not say whose it is: %s" % s1["rig"]["handles"])
+    gui.xdo("key", "ctrl+z")
+    gui.wait("Ctrl+Z to take the handle back", lambda s: not s["rig"]["handles"])
+    rig = gui.settle()["rig"]
+    print("after Ctrl+Z:", rig)
+    if rig["fixed_group"] != "ARAP_Fixed" or "ARAP_Fixed" not in rig["groups"]:
+        raise Fail("Ctrl+Z after Add Handle lost the fixed group: %s" % rig)
+    named = {rig["fixed_group"]} | {h[0] for h in rig["handles"]}
+    stray = [g for g in rig["groups"] if g.startswith("ARAP_") and g not in named]
+    if stray or rig["empties"]:
+        raise Fail("after Ctrl+Z the vertex groups or Empties disagree with the settings: %s" % rig)
+    gui.xdo("key", "ctrl+alt+shift+f")
+    rig = gui.settle(5)["rig"]
+    if [g for g in rig["groups"] if g.startswith("ARAP_Fixed")] != ["ARAP_Fixed"]:
+        raise Fail("Set Fixed again made a second fixed group: %s" % rig["groups"])
+    print("Edit Mode set-up and its undo keep the settings and the groups together")
 
 
 def offset(s):

@@ -7,7 +7,8 @@
 #   state.json   written every 0.2 s: vertex hash, top centroid, empty location, Live state, viewport centre
 #   cmd_*        commands from the driver: cmd_live (start Live), cmd_select_empty, cmd_auto (Auto mode on), cmd_animate
 #                (keyframe the Empty), cmd_redo_settings, cmd_big_deform (a Deform that would run for minutes on a
-#                second, finer tube "Big", invoked as a button does), cmd_screenshot, cmd_quit
+#                second, finer tube "Big", invoked as a button does), cmd_rig (a third bar in Edit Mode, its
+#                bottom selected), cmd_rig_top (its top selected instead), cmd_screenshot, cmd_quit
 import hashlib
 import os
 import sys
@@ -79,6 +80,14 @@ def setup():
     # unlike bpy.ops calls from a script, are what the redo panel (F9) shows.
     km = bpy.context.window_manager.keyconfigs.addon.keymaps.new(name="3D View", space_type='VIEW_3D')
     km.keymap_items.new("object.arap_deform", 'D', 'PRESS', ctrl=True, alt=True, shift=True)
+    # Keys for the set-up buttons in Edit Mode: pressed for real, they make the undo steps a click does.
+    km = bpy.context.window_manager.keyconfigs.addon.keymaps.new(name="Mesh", space_type='EMPTY')
+    km.keymap_items.new("object.arap_set_fixed_from_selection", 'F', 'PRESS', ctrl=True, alt=True, shift=True)
+    km.keymap_items.new("object.arap_add_handle_from_selection", 'H', 'PRESS', ctrl=True, alt=True, shift=True)
+    # The extension installs clean: no module of the add-on outside its own name, and on 4.2+ nothing
+    # under the warning sign of the Preferences.
+    STATE["aliases"] = sorted(U.modules_under_other_names())
+    STATE["policy_warnings"] = U.extension_policy_warnings() if bpy.app.version >= (4, 2, 0) else []
     # An undo step for the set-up, so Ctrl+Z can come back to it.
     with bpy.context.temp_override(window=win, area=area, region=region):
         bpy.ops.ed.undo_push(message="ARAP test set-up")
@@ -175,6 +184,37 @@ def big_deform():
         STATE["deform_invoke"] = list(bpy.ops.object.arap_deform('INVOKE_DEFAULT'))
 
 
+def rig_in_edit_mode():
+    """A third bar, "Rig", active alone and in Edit Mode with its bottom vertices selected."""
+    rig = add_bar("Rig", around=16, cuts=12, x=-1.5)
+    for ob in bpy.context.view_layer.objects:
+        ob.select_set(ob == rig)
+    bpy.context.view_layer.objects.active = rig
+    win, area, region = session_files.view3d()
+    with bpy.context.temp_override(window=win, area=area, region=region, active_object=rig, object=rig):
+        bpy.ops.object.mode_set(mode='EDIT')
+    select_rig(lambda z: z < -0.7)
+
+
+def select_rig(predicate):
+    rig = bpy.data.objects["Rig"]
+    bm = bmesh.from_edit_mesh(rig.data)
+    for v in bm.verts:
+        v.select_set(predicate(v.co.z))
+    bm.select_flush_mode()
+    bmesh.update_edit_mesh(rig.data)
+
+
+def rig_state():
+    rig = bpy.data.objects.get("Rig")
+    if rig is None:
+        return None
+    return {"mode": rig.mode, "fixed_group": rig.arap.fixed_group,
+            "handles": [[h.group, h.empty.name if h.empty is not None else None] for h in rig.arap.handles],
+            "groups": [g.name for g in rig.vertex_groups],
+            "empties": sorted(ob.name for ob in bpy.data.objects if ob.name.startswith("Rig_"))}
+
+
 def write_state():
     deform_ops, live_ops, sessions, status_overlay = U.addon("deform_ops", "live_ops", "sessions", "status_overlay")
     obj = bpy.data.objects.get("Bar")
@@ -193,6 +233,7 @@ def write_state():
         big = bpy.data.objects.get("Big")
         if big is not None:
             STATE["big_now_hash"] = coords_hash(big)
+        STATE["rig"] = rig_state()
         active = bpy.context.view_layer.objects.active
         STATE["active"] = active.name if active is not None else None
         win, area, region = session_files.view3d()
@@ -228,6 +269,10 @@ def tick():
             animate_empty()
         if take("cmd_big_deform"):
             big_deform()
+        if take("cmd_rig"):
+            rig_in_edit_mode()
+        if take("cmd_rig_top"):
+            select_rig(lambda z: z > 0.7)
         if take("cmd_redo_settings"):
             obj = bpy.data.objects["Bar"]
             obj.arap.iterations, obj.arap.tolerance, obj.arap.init = 37, 1e-5, 'LAPLACIAN'
