@@ -77,11 +77,11 @@ case "$mode" in
     "$BUILD/arap-deform" "$BUILD/demo_bar.obj" --fixed "$BUILD/demo_fixed.txt" \
       --handle "$BUILD/demo_handle.txt" --translate 2,0,-1 --iterations 20 --output "$BUILD/demo_bar_bent.obj"
     cmake --build "$BUILD" --target arap_addon_install
-    blender --background -noaudio --python-exit-code 1 --python addon/demo_pose.py -- "$BUILD/demo"
+    blender --background -noaudio --python-exit-code 1 --python tools/demo_pose.py -- "$BUILD/demo"
     ;;
   bench)
     cmake --build "$BUILD" --target run_benchmarks
-    blender --background --factory-startup -noaudio --python-exit-code 1 --python blender_tests/bench_live.py -- \
+    blender --background --factory-startup -noaudio --python-exit-code 1 --python bench/blender/bench_live.py -- \
       --addon-dir "$BUILD/addon" --sizes 10000,50000,200000 --frames 20 --output "$BUILD/results"
     ;;
   *)

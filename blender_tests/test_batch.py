@@ -3,10 +3,7 @@
 # --in-place, a crashing worker, Ctrl-C, --bake, and what a farm uses: --shard,
 # merge-reports, --rerun-failed, --files-from, --results-log (Slurm itself: test_slurm.py).
 #
-# The launcher is the build tree's arap-batch, found next to the staged add-on
-# (<build>/addon/arap_deform -> <build>/arap-batch) or via ARAP_BATCH_LAUNCHER.
-import glob
-import hashlib
+# The launcher and the files come from batch_fixtures.py.
 import json
 import os
 import shutil
@@ -20,86 +17,11 @@ import bpy
 import numpy as np
 
 import arap_test_utils as U
-import batch_scenes as S
+import batch_fixtures as F
+from batch_fixtures import (LAUNCHER, PYTHON, blender_env, hashes, load_object, patched_blender, run_batch, running, sha,
+                            temp_leftovers)
 
 bake = U.addon("bake")
-
-PYTHON = "/usr/bin/python3" if os.path.exists("/usr/bin/python3") else shutil.which("python3")
-
-
-def find_launcher():
-    env = os.environ.get("ARAP_BATCH_LAUNCHER")
-    if env:
-        return env
-    staged = os.path.dirname(os.path.realpath(U.addon().__file__))
-    return os.path.join(os.path.dirname(os.path.dirname(staged)), "arap-batch")
-
-
-LAUNCHER = find_launcher()
-
-
-def run_batch(*args, timeout=300):
-    p = subprocess.run([PYTHON, LAUNCHER] + [str(a) for a in args], capture_output=True, text=True,
-                       timeout=timeout)
-    return p.returncode, p.stdout + p.stderr
-
-
-def sha(path):
-    with open(path, "rb") as f:
-        return hashlib.sha256(f.read()).hexdigest()
-
-
-def hashes(folder):
-    return {p: sha(p) for p in sorted(glob.glob(os.path.join(folder, "*")))}
-
-
-def temp_leftovers(*folders):
-    return [n for d in folders for n in os.listdir(d) if "arap-tmp" in n or ".tmp-" in n or n.endswith("@")]
-
-
-def running(pid):
-    """The process exists and is not a zombie waiting for its parent."""
-    try:
-        with open("/proc/%d/stat" % pid) as f:
-            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
-
-
-def blender_env():
-    """Without pyenv/virtualenv folders on PATH: Blender's Python would take their library."""
-    env = dict(os.environ)
-    env["PATH"] = os.pathsep.join(p for p in env.get("PATH", "").split(os.pathsep)
-                                  if "pyenv" not in p and "virtualenv" not in p)
-    return env
-
-
-def patched_blender(folder, name, patch):
-    """An executable that runs Blender with batch_worker.process(entry, job) wrapped:
-    `patch` is an expression run first, with `e` (the file entry) in scope."""
-    path = os.path.join(folder, name)
-    code = ("import os, signal, time; from arap_deform import batch_worker as w; "
-            "p = w.process; w.process = lambda e, j: (%s) or p(e, j); " % patch)
-    with open(path, "w") as f:
-        f.write("#!%s\nimport os, sys\nargs = sys.argv[1:]\ni = args.index('--python-expr') + 1\n"
-                "head, tail = args[i].rsplit('from ', 1)\nargs[i] = head + %r + 'from ' + tail\n"
-                "os.execv(%r, [%r] + args)\n" % (PYTHON, code, bpy.app.binary_path, bpy.app.binary_path))
-    os.chmod(path, 0o755)
-    return path
-
-
-def load_object(path, name="Bar"):
-    """(mesh coords float64 (n, 3), shape key names, modifiers) of object `name` in a .blend."""
-    with bpy.data.libraries.load(path, link=False) as (_src, dst):
-        dst.objects = [name]
-    obj = dst.objects[0]
-    keys = [kb.name for kb in obj.data.shape_keys.key_blocks] if obj.data.shape_keys else []
-    mods = [(m.type, m.filepath) for m in obj.modifiers if m.type == 'MESH_CACHE']
-    out = U.coords(obj), keys, mods
-    mesh = obj.data
-    bpy.data.objects.remove(obj)
-    bpy.data.meshes.remove(mesh)
-    return out
 
 
 class Batch(unittest.TestCase):
@@ -120,10 +42,10 @@ class Batch(unittest.TestCase):
     def test_end_to_end_with_failures(self):
         src, out = self.folder("in"), self.folder("out")
         for k in range(3):
-            S.make_good(os.path.join(src, "good%d.blend" % k), dx=0.3 + 0.2 * k)
-        S.make_corrupt(os.path.join(src, "corrupt.blend"))
-        S.make_missing_empty(os.path.join(src, "no_empty.blend"))
-        S.make_no_settings(os.path.join(src, "no_settings.blend"))
+            F.make_good(os.path.join(src, "good%d.blend" % k), dx=0.3 + 0.2 * k)
+        F.make_corrupt(os.path.join(src, "corrupt.blend"))
+        F.make_missing_empty(os.path.join(src, "no_empty.blend"))
+        F.make_no_settings(os.path.join(src, "no_settings.blend"))
         before = hashes(src)
         report = os.path.join(self.root, "e2e.json")
         code, text = run_batch(src, "--output", out, "--jobs", 2, "--frame", 1, "--report", report)
@@ -154,7 +76,7 @@ class Batch(unittest.TestCase):
 
     def test_usage_errors_exit_2(self):
         src = self.folder("in")
-        S.make_good(os.path.join(src, "a.blend"))
+        F.make_good(os.path.join(src, "a.blend"))
         self.assertEqual(run_batch(src)[0], 2)                                  # no --output
         self.assertEqual(run_batch(src, "--output", src)[0], 2)                 # would overwrite inputs
         self.assertEqual(run_batch(src, "--output", src + "x", "--bake", "5:1")[0], 2)
@@ -162,7 +84,7 @@ class Batch(unittest.TestCase):
 
     def test_in_place(self):
         src = self.folder("in")
-        path = S.make_good(os.path.join(src, "a.blend"))
+        path = F.make_good(os.path.join(src, "a.blend"))
         before = sha(path)
         code, text = run_batch(path, "--in-place", "--jobs", 1)
         self.assertEqual(code, 0, text)
@@ -174,7 +96,7 @@ class Batch(unittest.TestCase):
     def test_crashed_worker_is_restarted(self):
         src, out = self.folder("in"), self.folder("out")
         for name in ("a", "b_crash", "c", "d"):
-            S.make_good(os.path.join(src, name + ".blend"))
+            F.make_good(os.path.join(src, name + ".blend"))
         # A Blender whose worker segfaults on files named *b_crash*.
         wrapper = patched_blender(self.root, "crashing-blender",
                                   "'b_crash' in e['input'] and os.kill(os.getpid(), signal.SIGSEGV)")
@@ -193,7 +115,7 @@ class Batch(unittest.TestCase):
     def test_timeout_fails_the_file_and_goes_on(self):
         src, out = self.folder("in"), self.folder("out")
         for name in ("a", "b_slow", "c"):
-            S.make_good(os.path.join(src, name + ".blend"))
+            F.make_good(os.path.join(src, name + ".blend"))
         wrapper = patched_blender(self.root, "slow-blender", "'b_slow' in e['input'] and time.sleep(120)")
         report = os.path.join(self.root, "timeout.json")
         code, text = run_batch(src, "--output", out, "--jobs", 1, "--blender", wrapper, "--timeout", 4,
@@ -207,7 +129,7 @@ class Batch(unittest.TestCase):
 
     def test_named_objects(self):
         src, out = self.folder("in"), self.folder("out")
-        path = S.make_good(os.path.join(src, "a.blend"))
+        path = F.make_good(os.path.join(src, "a.blend"))
         code, text = run_batch(path, "--output", out, "--objects", "Bar")
         self.assertEqual(code, 0, text)
         report = os.path.join(self.root, "objects.json")
@@ -219,8 +141,8 @@ class Batch(unittest.TestCase):
     def test_worker_alone_for_one_file(self):
         # What a farm task runs: one Blender, one file, exit code = result.
         src, out = self.folder("in"), self.folder("out")
-        good = S.make_good(os.path.join(src, "a.blend"))
-        bad = S.make_no_settings(os.path.join(src, "b.blend"))
+        good = F.make_good(os.path.join(src, "a.blend"))
+        bad = F.make_no_settings(os.path.join(src, "b.blend"))
         addon = os.path.dirname(os.path.realpath(U.addon().__file__))
         expr = ("import sys; sys.path.insert(0, %r); from arap_deform import batch_worker; batch_worker.main()"
                 % os.path.dirname(addon))
@@ -240,7 +162,7 @@ class Batch(unittest.TestCase):
         src, out = self.folder("in"), self.folder("out")
         # Enough files that the run is surely still going when the signal lands, even on a loaded machine.
         for k in range(30):
-            S.make_good(os.path.join(src, "f%02d.blend" % k), vertices=64, cuts=120)
+            F.make_good(os.path.join(src, "f%02d.blend" % k), vertices=64, cuts=120)
         before = hashes(src)
         report = os.path.join(self.root, "sigint.json")
         p = subprocess.Popen([PYTHON, LAUNCHER, src, "--output", out, "--jobs", "1", "--report", report],
@@ -270,9 +192,9 @@ class Batch(unittest.TestCase):
     def test_shards_merge_to_the_unsharded_run(self):
         src, out_all, out_sharded = self.folder("in"), self.folder("all"), self.folder("sharded")
         for k in range(3):
-            S.make_good(os.path.join(src, "good%d.blend" % k), dx=0.3 + 0.2 * k)
-        S.make_corrupt(os.path.join(src, "corrupt.blend"))
-        S.make_missing_empty(os.path.join(src, "no_empty.blend"))
+            F.make_good(os.path.join(src, "good%d.blend" % k), dx=0.3 + 0.2 * k)
+        F.make_corrupt(os.path.join(src, "corrupt.blend"))
+        F.make_missing_empty(os.path.join(src, "no_empty.blend"))
         names = sorted(os.listdir(src))
         whole = os.path.join(self.root, "whole.json")
         self.assertEqual(run_batch(src, "--output", out_all, "--jobs", 1, "--frame", 1, "--report", whole)[0], 1)
@@ -316,7 +238,7 @@ class Batch(unittest.TestCase):
 
     def test_empty_shard_and_shard_usage_errors(self):
         src, out = self.folder("in"), self.folder("out")
-        S.make_good(os.path.join(src, "a.blend"))
+        F.make_good(os.path.join(src, "a.blend"))
         report = os.path.join(self.root, "empty-shard.json")
         code, text = run_batch(src, "--output", out, "--shard", "1/2", "--report", report)
         self.assertEqual(code, 0, text)
@@ -333,8 +255,8 @@ class Batch(unittest.TestCase):
     def test_rerun_failed_runs_only_those_and_updates_the_report(self):
         src, out = self.folder("in"), self.folder("out")
         for name in ("a", "b"):
-            S.make_good(os.path.join(src, name + ".blend"))
-        S.make_missing_empty(os.path.join(src, "c.blend"))
+            F.make_good(os.path.join(src, name + ".blend"))
+        F.make_missing_empty(os.path.join(src, "c.blend"))
         listed = os.path.join(self.root, "list.txt")
         with open(listed, "w") as f:
             f.write("# the shots\n%s\n\n%s\n" % (os.path.join(src, "a.blend"), os.path.join(src, "c.blend")))
@@ -349,7 +271,7 @@ class Batch(unittest.TestCase):
         self.assertEqual(code, 2, text)                       # settings come from the report
         self.assertIn("drop --frame", text)
 
-        S.make_good(os.path.join(src, "c.blend"))             # the shot is fixed
+        F.make_good(os.path.join(src, "c.blend"))             # the shot is fixed
         code, text = run_batch("--rerun-failed", report)
         self.assertEqual(code, 0, text)
         self.assertIn("1 file(s): 1 ok, 0 failed", text)
@@ -366,7 +288,7 @@ class Batch(unittest.TestCase):
 
     def test_listed_file_that_is_missing_fails_alone(self):
         src, out = self.folder("in"), self.folder("out")
-        S.make_good(os.path.join(src, "a.blend"))
+        F.make_good(os.path.join(src, "a.blend"))
         listed = os.path.join(self.root, "missing-list.txt")
         with open(listed, "w") as f:
             f.write("%s\n%s\n" % (os.path.join(src, "a.blend"), os.path.join(src, "gone.blend")))
@@ -384,7 +306,7 @@ class Batch(unittest.TestCase):
         # here the worker first. The file being posed is "interrupted", not a crash.
         src, out = self.folder("in"), self.folder("out")
         for name in ("a", "b_slow"):
-            S.make_good(os.path.join(src, name + ".blend"))
+            F.make_good(os.path.join(src, name + ".blend"))
         pid_file = os.path.join(self.root, "slow-worker.pid")
         wrapper = patched_blender(self.root, "pid-blender", "'b_slow' in e['input'] and (open(%r, 'w').write("
                                   "str(os.getpid())), time.sleep(120))" % pid_file)
@@ -409,7 +331,7 @@ class Batch(unittest.TestCase):
         # SIGKILL to the launcher (an out-of-memory kill) cannot be handled by it: its workers,
         # each in its own session, must end on their own instead of posing on for no one.
         src, out = self.folder("in"), self.folder("out")
-        S.make_good(os.path.join(src, "b_slow.blend"))
+        F.make_good(os.path.join(src, "b_slow.blend"))
         pid_file = os.path.join(self.root, "orphan-worker.pid")
         wrapper = patched_blender(self.root, "orphan-blender", "'b_slow' in e['input'] and (open(%r, 'w').write("
                                   "str(os.getpid())), time.sleep(120))" % pid_file)
@@ -430,7 +352,7 @@ class Batch(unittest.TestCase):
 
     def test_bake_shape_keys_and_pc2(self):
         src, out_sk, out_pc = self.folder("in"), self.folder("sk"), self.folder("pc2")
-        path = S.make_animated(os.path.join(src, "anim.blend"), frames=(1, 4))
+        path = F.make_animated(os.path.join(src, "anim.blend"), frames=(1, 4))
         code, text = run_batch(path, "--output", out_sk, "--bake", "1:4")
         self.assertEqual(code, 0, text)
         _co, keys, _mods = load_object(os.path.join(out_sk, "anim.blend"))

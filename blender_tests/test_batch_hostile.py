@@ -7,8 +7,8 @@ import tempfile
 import unittest
 
 import arap_test_utils as U
-import batch_scenes as S
-from test_batch import hashes, run_batch
+import batch_fixtures as F
+from batch_fixtures import hashes, run_batch
 
 batch_worker = U.addon("batch_worker")
 
@@ -18,7 +18,7 @@ class BatchHostile(unittest.TestCase):
         self.root = tempfile.mkdtemp(prefix="arap_batch_hostile_")
         self.src = os.path.join(self.root, "in")
         os.makedirs(self.src)
-        S.make_good(os.path.join(self.src, "a.blend"))
+        F.make_good(os.path.join(self.src, "a.blend"))
         self.inputs = hashes(self.src)
 
     def tearDown(self):

@@ -16,9 +16,8 @@ import unittest
 
 import numpy as np
 
-import batch_scenes as S
+import batch_fixtures as F
 import slurm_cluster
-import test_batch as T
 
 WHY_NOT = slurm_cluster.unavailable()
 REQUIRED = os.environ.get("ARAP_REQUIRE_SLURM") == "1"
@@ -34,7 +33,7 @@ def without_ms(value):
 
 
 def mesh_bytes(path):
-    coords, _keys, _mods = T.load_object(path)
+    coords, _keys, _mods = F.load_object(path)
     return coords.astype(np.float32).tobytes()
 
 
@@ -62,12 +61,12 @@ class SlurmBatch(unittest.TestCase):
         return d
 
     def batch(self, *args, timeout=600):
-        p = subprocess.run([T.PYTHON, T.LAUNCHER] + [str(a) for a in args], capture_output=True, text=True,
+        p = subprocess.run([F.PYTHON, F.LAUNCHER] + [str(a) for a in args], capture_output=True, text=True,
                            timeout=timeout, env=self.cluster.env)
         return p.returncode, p.stdout + p.stderr
 
     def start_batch(self, *args):
-        return subprocess.Popen([T.PYTHON, T.LAUNCHER] + [str(a) for a in args], stdout=subprocess.PIPE,
+        return subprocess.Popen([F.PYTHON, F.LAUNCHER] + [str(a) for a in args], stdout=subprocess.PIPE,
                                 stderr=subprocess.STDOUT, text=True, env=self.cluster.env)
 
     def wait_for(self, what, ready, timeout=180):
@@ -91,11 +90,11 @@ class SlurmBatch(unittest.TestCase):
         report's path (report) and the flag file (flag)."""
         src, out, runs = self.folder("in"), self.folder("out"), self.folder("runs")
         for name in names:
-            S.make_good(os.path.join(src, name + ".blend"))
-        before = T.hashes(src)
+            F.make_good(os.path.join(src, name + ".blend"))
+        before = F.hashes(src)
         flag, started = os.path.join(runs, "sleep-on-slow"), os.path.join(runs, "slow-started")
         open(flag, "w").close()
-        blender = T.patched_blender(runs, "sleepy-blender", "'slow' in e['input'] and os.path.exists(%r) and "
+        blender = F.patched_blender(runs, "sleepy-blender", "'slow' in e['input'] and os.path.exists(%r) and "
                                     "(open(%r, 'w').close() or time.sleep(600))" % (flag, started))
         report = os.path.join(runs, "r.json")
         proc = self.start_batch(src, "--output", out, "--scheduler", "slurm", "--shards", shards,
@@ -109,10 +108,10 @@ class SlurmBatch(unittest.TestCase):
     def test_same_results_as_local_mode(self):
         src, out_local, out_slurm, runs = (self.folder(n) for n in ("in", "local", "slurm", "runs"))
         for k in range(3):
-            S.make_good(os.path.join(src, "good%d.blend" % k), dx=0.3 + 0.2 * k)
-        S.make_corrupt(os.path.join(src, "corrupt.blend"))
-        S.make_missing_empty(os.path.join(src, "no_empty.blend"))
-        before = T.hashes(src)
+            F.make_good(os.path.join(src, "good%d.blend" % k), dx=0.3 + 0.2 * k)
+        F.make_corrupt(os.path.join(src, "corrupt.blend"))
+        F.make_missing_empty(os.path.join(src, "no_empty.blend"))
+        before = F.hashes(src)
         local_report = os.path.join(runs, "local.json")
         code_local, text_local = self.batch(src, "--output", out_local, "--jobs", 2, "--frame", 1,
                                             "--report", local_report)
@@ -123,7 +122,7 @@ class SlurmBatch(unittest.TestCase):
         self.assertEqual((code_local, code), (1, 1), text_local + text)
         self.assertIn("5 file(s): 3 ok, 2 failed", text)
         self.assertIn("failed: %s: cannot open" % os.path.join(src, "corrupt.blend"), text)
-        self.assertEqual(T.hashes(src), before)                     # inputs byte-identical
+        self.assertEqual(F.hashes(src), before)                     # inputs byte-identical
         self.assertEqual(sorted(os.listdir(out_slurm)), sorted(os.listdir(out_local)))
         self.assertEqual(sorted(os.listdir(out_slurm)), ["good0.blend", "good1.blend", "good2.blend"])
         for name in os.listdir(out_local):
@@ -158,13 +157,13 @@ class SlurmBatch(unittest.TestCase):
         for k in (0, 1):
             with open(os.path.join(folder, "shard-%d.json" % k)) as f:
                 self.assertEqual([r["input"] for r in json.load(f)["files"]], sorted(by_input)[k::2])
-        self.assertEqual(T.temp_leftovers(src, out_slurm), [])
+        self.assertEqual(F.temp_leftovers(src, out_slurm), [])
 
     def test_no_wait_then_merge_and_resubmit(self):
         src, out, runs = self.folder("in"), self.folder("out"), self.folder("runs")
-        S.make_good(os.path.join(src, "a.blend"))
-        S.make_good(os.path.join(src, "b.blend"), dx=0.4)
-        S.make_corrupt(os.path.join(src, "c.blend"))
+        F.make_good(os.path.join(src, "a.blend"))
+        F.make_good(os.path.join(src, "b.blend"), dx=0.4)
+        F.make_corrupt(os.path.join(src, "c.blend"))
         report = os.path.join(runs, "r.json")
         code, text = self.batch(src, "--output", out, "--scheduler", "slurm", "--shards", 2, "--no-wait",
                                 "--report", report)
@@ -204,8 +203,8 @@ class SlurmBatch(unittest.TestCase):
         self.assertIn("Slurm task %s_0 CANCELLED" % job, files["slow.blend"]["reason"])
         self.assertEqual(r["slurm_tasks"], {"0": "CANCELLED", "1": "COMPLETED"})
         self.assertEqual(sorted(os.listdir(out)), ["a.blend", "b.blend", "c.blend", "d.blend"])
-        self.assertEqual(T.hashes(src), run.before)
-        self.assertEqual(T.temp_leftovers(src, out), [])
+        self.assertEqual(F.hashes(src), run.before)
+        self.assertEqual(F.temp_leftovers(src, out), [])
         done = {f: os.stat(os.path.join(out, f)).st_mtime_ns for f in os.listdir(out)}
 
         os.remove(run.flag)
@@ -219,7 +218,7 @@ class SlurmBatch(unittest.TestCase):
         self.assertEqual(sorted(os.listdir(out)), ["a.blend", "b.blend", "c.blend", "d.blend", "slow.blend"])
         for name, mtime in done.items():          # only the failed file was run again
             self.assertEqual(os.stat(os.path.join(out, name)).st_mtime_ns, mtime, name)
-        posed, _k, _m = T.load_object(os.path.join(out, "slow.blend"))
+        posed, _k, _m = F.load_object(os.path.join(out, "slow.blend"))
         self.assertGreater(posed[:, 0].max(), 1.0)
 
     def test_task_killed_outright_keeps_what_it_finished(self):
@@ -240,7 +239,7 @@ class SlurmBatch(unittest.TestCase):
         self.assertEqual(files["slow.blend"]["status"], "failed")
         self.assertEqual(files["slow.blend"]["reason"], "no result from Slurm task %s_0 (FAILED)" % run.job)
         self.assertEqual(sorted(os.listdir(run.out)), ["a.blend", "b.blend"])
-        self.assertEqual(T.hashes(run.src), run.before)
+        self.assertEqual(F.hashes(run.src), run.before)
         self.wait_for("Slurm to end the task's worker",
                       lambda: not [p for p, cmd in self.cluster.processes() if "blender" in cmd], timeout=60)
 
@@ -259,8 +258,8 @@ class SlurmBatch(unittest.TestCase):
         files = {os.path.basename(x["input"]): x["status"] for x in r["files"]}
         self.assertEqual(files, {"a.blend": "ok", "slow.blend": "interrupted"}, r["files"])
         self.assertEqual(os.listdir(out), ["a.blend"])
-        self.assertEqual(T.hashes(run.src), run.before)
-        self.assertEqual(T.temp_leftovers(run.src, out), [])
+        self.assertEqual(F.hashes(run.src), run.before)
+        self.assertEqual(F.temp_leftovers(run.src, out), [])
 
 
 if __name__ == "__main__":

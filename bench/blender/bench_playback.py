@@ -3,11 +3,11 @@
 #
 # Headless (frame_set, as --render-anim and batch scripts change frames):
 #   blender --background --factory-startup -noaudio --python-exit-code 1 \
-#       --python blender_tests/bench_playback.py -- [--addon-dir BUILD/addon] [--sizes 10000,50000] \
+#       --python bench/blender/bench_playback.py -- [--addon-dir BUILD/addon] [--sizes 10000,50000] \
 #       [--frames 48] [--output DIR]
 # In the viewport (a real window; Xvfb works), Blender's own playback (Spacebar):
 #   xvfb-run -a -s "-screen 0 1280x800x24" blender --factory-startup -noaudio \
-#       --python blender_tests/bench_playback.py -- --viewport [same options]
+#       --python bench/blender/bench_playback.py -- --viewport [same options]
 #
 # Headless, per frame (wall ms, median): the first pass solves each frame
 # (warm-started from the previous one, to the tolerance), the second replays
@@ -26,12 +26,12 @@ import time
 
 import bpy
 import numpy as np
-from mathutils import Vector
+from mathutils import Matrix, Vector
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.join(HERE, "..", "..", "blender_tests")]   # tube_scene; the tests' helpers
 import arap_test_utils as U  # noqa: E402
-from tube_scene import (add_empty, add_group, clear_scene, laplacian_with_hook, load_addon, make_tube,  # noqa: E402
-                        offsets)
+from tube_scene import add_group, laplacian_with_hook, make_tube, offsets  # noqa: E402
 
 
 def parse_args():
@@ -53,7 +53,7 @@ def animated_tube(name, vertices, frames):
     """The tube and its handle Empty, keyframed on a sideways sweep over `frames` frames."""
     obj, fixed, top, h = make_tube(name, vertices)
     start = Vector((0.0, 0.0, h))
-    empty = add_empty(name + "Handle", start)
+    empty = U.add_empty(name + "Handle", Matrix.Translation(start))
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = 1, frames
     for f, dx in zip(range(1, frames + 1), [0.0] + offsets(frames - 1, h)):
@@ -126,11 +126,11 @@ def med(values):
 def headless(args, api, auto, bake):
     rows = []
     for n in [int(x) for x in args.sizes.split(",") if x]:
-        clear_scene()
+        U.clear_scene()
         ours = ours_headless(api, auto, bake, n, args.frames, args.tolerance)
-        clear_scene()
+        U.clear_scene()
         lap = laplacian_headless(n, args.frames, args.iterations)
-        clear_scene()
+        U.clear_scene()
         row = {"target_vertices": n, "ours": ours, "laplacian": lap}
         rows.append(row)
         print("%7d vertices: Auto solving %s | cached %s | Laplacian Deform + Hook %s | path: scrub %.1e, "
@@ -186,7 +186,7 @@ class ViewportRun:
         if not self.jobs:
             return self.finish()
         n, kind = self.jobs[0]
-        clear_scene()
+        U.clear_scene()
         obj, fixed, top, h, empty, start = animated_tube("Tube", n, self.args.frames)
         if kind == "auto":
             add_group(obj, "fixed", fixed)
@@ -239,7 +239,7 @@ class ViewportRun:
 
 def main():
     args = parse_args()
-    load_addon(args.addon_dir)
+    U.load_addon(args.addon_dir)
     api, auto, bake = U.addon("api", "auto", "bake")
     if args.viewport:
         run = ViewportRun(args, api)

@@ -18,14 +18,14 @@ import time
 import traceback
 
 import bpy
-from mathutils import Vector
+from mathutils import Matrix
 
 OUT, ADDON_DIR, VERTICES = sys.argv[sys.argv.index("--") + 1:][:3]
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path[:0] = [HERE, os.path.join(HERE, "..")]
+sys.path[:0] = [HERE, os.path.join(HERE, "..", "..", "blender_tests"), os.path.join(HERE, "..", "..", "blender_tests", "gui")]
 import arap_test_utils as U  # noqa: E402
 import session_files  # noqa: E402
-from tube_scene import add_empty, add_group, clear_scene, load_addon, make_tube  # noqa: E402
+from tube_scene import add_group, make_tube  # noqa: E402
 
 STATE = {"ready": False, "errors": [], "tick": 0}
 RECORD = {"updates": [], "draws": [], "moves": []}
@@ -50,14 +50,14 @@ def instrument(live):
 
 
 def setup():
-    load_addon(ADDON_DIR)
+    U.load_addon(ADDON_DIR)
     api, live = U.addon("api", "live")
     instrument(live)
-    clear_scene()
+    U.clear_scene()
     obj, fixed, top, h = make_tube("Tube", int(VERTICES))
     add_group(obj, "fixed", fixed)
     add_group(obj, "top", top)
-    empty = add_empty("Handle", Vector((0.0, 0.0, h)))
+    empty = U.add_empty("Handle", Matrix.Translation((0.0, 0.0, h)))
     empty.empty_display_type = 'SPHERE'
     empty.empty_display_size = 0.4
     bpy.context.view_layer.update()

@@ -3,18 +3,18 @@
 # Debian release's Blender, each release in its own Debian root (debootstrap),
 # then build the zip users download and install it in every Blender.
 #
-#   bash blender_tests/version_matrix.sh                  # host + trixie + sid + dist, every test (as root)
-#   bash blender_tests/version_matrix.sh sid              # one root
-#   bash blender_tests/version_matrix.sh --blender-only host sid dist
+#   bash tools/version_matrix.sh                  # host + trixie + sid + dist, every test (as root)
+#   bash tools/version_matrix.sh sid              # one root
+#   bash tools/version_matrix.sh --blender-only host sid dist
 #                                                         # what CI runs: the Blender suites only in the roots
-#   bash blender_tests/version_matrix.sh --provision-only sid
+#   bash tools/version_matrix.sh --provision-only sid
 #                                                         # make the root and install its packages, no build
 #
 #   target   Debian        Blender  Python
 #   host     this machine  (12 bookworm: 3.4.1, Python 3.11): `bash setup.sh test` in build/
 #   trixie   13            4.3.2    3.13
 #   sid      unstable      5.2.x    3.14
-#   dist     addon/build_dist.sh: one zip with a module for the host's and each root's Python, built in a
+#   dist     tools/build_dist.sh: one zip with a module for the host's and each root's Python, built in a
 #            Debian 11 root (old glibc); then extension_lifecycle.py installs, poses and uninstalls that zip
 #            in the host's Blender and in each root's
 #
@@ -30,8 +30,8 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 checkout=$(basename "$here")
-# shellcheck source=../cmake/debian_roots.sh
-source "$here/cmake/debian_roots.sh"
+# shellcheck source=debian_roots.sh
+source "$here/tools/debian_roots.sh"
 roots=${ARAP_ROOTS:-/var/tmp/arap-roots}
 report=${ARAP_MATRIX_REPORT:-$here/build/version_matrix.md}
 mode=test
@@ -67,7 +67,7 @@ if [ ${#dist_roots[@]} -eq 0 ]; then
 fi
 
 run_dist() {  # build the zip, then its life cycle in every Blender of this run
-  bash "$here/addon/build_dist.sh" "${dist_roots[@]}" || return 1
+  bash "$here/tools/build_dist.sh" "${dist_roots[@]}" || return 1
   local zip status=0 version
   version=$(sed -n 's/^version = "\(.*\)"$/\1/p' "$here/addon/arap_deform/blender_manifest.toml")
   zip=build/dist/arap_deform-$version-linux-x64.zip

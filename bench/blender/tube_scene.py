@@ -1,34 +1,12 @@
 # The tube scene of the Blender-side benchmarks (bench_live.py, bench_playback.py):
 # an open tube of quads, its bottom fifth fixed and its top 5 % on an Empty,
-# for ARAP and for Blender's Laplacian Deform + Hook with the same anchors;
-# and how those benchmarks load the add-on.
+# for ARAP and for Blender's Laplacian Deform + Hook with the same anchors
+# (arap_test_utils, the tests' helpers, clears the scene, adds Empties and loads the add-on).
 import math
-import os
-import sys
 
 import bpy
 import numpy as np
 from mathutils import Matrix, Vector
-
-
-def load_addon(addon_dir):
-    """Register the add-on from `addon_dir` (a staged build/addon) as the plain
-    package arap_deform, or enable the installed one (ARAP_ADDON_MODULE); then
-    arap_test_utils.addon() reaches it."""
-    import arap_test_utils as U
-    if addon_dir:
-        sys.path.insert(0, os.path.abspath(addon_dir))
-        U.ADDON_MODULE = "arap_deform"
-        U.addon().register()
-    elif U.enable_addon() is None:
-        raise SystemExit("could not enable %s (give --addon-dir or set BLENDER_USER_SCRIPTS)" % U.ADDON_MODULE)
-
-
-def clear_scene():
-    for ob in list(bpy.data.objects):
-        bpy.data.objects.remove(ob)
-    for me in list(bpy.data.meshes):
-        bpy.data.meshes.remove(me)
 
 
 def make_tube(name, vertices, radius=0.5, height=4.0):
@@ -68,13 +46,6 @@ def add_group(obj, name, indices):
     g = obj.vertex_groups.new(name=name)
     g.add([int(i) for i in indices], 1.0, 'REPLACE')
     return g
-
-
-def add_empty(name, location):
-    e = bpy.data.objects.new(name, None)
-    e.location = location
-    bpy.context.scene.collection.objects.link(e)
-    return e
 
 
 def offsets(frames, height):

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The README's demo: pose a mesh with the installed add-on, headless, and render it.
 
-    blender --background -noaudio --python-exit-code 1 --python addon/demo_pose.py -- OUT_DIR
+    blender --background -noaudio --python-exit-code 1 --python tools/demo_pose.py -- OUT_DIR
 
 Uses the add-on as installed in the user's Blender (no --factory-startup), so it
 also checks that the set-up command installed and enabled it. Writes

@@ -1,6 +1,6 @@
 # Install and enable the ARAP Deform add-on zip in the user's Blender.
 #
-#   blender --background --factory-startup --python cmake/install_addon.py -- build/arap_deform.zip
+#   blender --background --factory-startup --python tools/install_addon.py -- build/arap_deform.zip
 #
 # --factory-startup keeps other add-ons and startup scripts out of the way;
 # the user's saved preferences are read back first so that saving them only

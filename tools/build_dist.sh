@@ -4,7 +4,7 @@
 # zip loads in blender.org's 4.2/4.5/5.0 (Python 3.11), 5.1/5.2 (Python 3.13) and
 # the Blenders of Debian 12 (3.11), 13 (3.13) and unstable (3.14).
 #
-#   bash addon/build_dist.sh [ROOT...]      as root; ROOTs are Debian roots of the version matrix
+#   bash tools/build_dist.sh [ROOT...]      as root; ROOTs are Debian roots of the version matrix
 #
 # The module is built for the host's Python (when its headers are installed) and
 # for the Python of every ROOT that has python3-dev, from their headers, with the
@@ -17,8 +17,8 @@
 # Disk, `blender --command extension install-file`) and 3.x as a legacy add-on.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
-# shellcheck source=../cmake/debian_roots.sh
-source "$here/cmake/debian_roots.sh"
+# shellcheck source=debian_roots.sh
+source "$here/tools/debian_roots.sh"
 trap unmount_root EXIT
 roots=${ARAP_ROOTS:-/var/tmp/arap-roots}
 builder=$roots/bullseye

@@ -1,7 +1,7 @@
 # Per-frame cost of the Live path, measured through live.LiveSession (not a test).
 #
 #   BLENDER_USER_SCRIPTS=<build>/blender_tests/user_scripts \
-#   blender --background --factory-startup -noaudio --python blender_tests/measure_live.py -- [frames] [iterations]
+#   blender --background --factory-startup -noaudio --python bench/blender/measure_live.py -- [frames] [iterations]
 #
 # UV spheres of ~10k and ~50k vertices, bottom cap fixed, top cap on an empty
 # that moves a little every frame. Prints medians: read (empties -> targets),
@@ -15,7 +15,8 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.join(HERE, "..", "..", "blender_tests")]   # tube_scene; the tests' helpers
 import arap_test_utils as U  # noqa: E402
 
 

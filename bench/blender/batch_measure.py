@@ -2,7 +2,7 @@
 # in turn on the same N generated .blend files (~7.8k vertices each), ROUNDS times each.
 #
 #   BLENDER_USER_SCRIPTS=<build>/blender_tests/user_scripts blender --background --factory-startup \
-#       -noaudio --python-exit-code 1 --python blender_tests/batch_measure.py -- <work dir> [N] [ROUNDS] \
+#       -noaudio --python-exit-code 1 --python bench/blender/batch_measure.py -- <work dir> [N] [ROUNDS] \
 #       [--slurm] [ARGS...]
 #
 # Compares --jobs 1 with --jobs 2; with --slurm (root, slurm-wlm + munge), the local --jobs 2
@@ -18,12 +18,12 @@ import statistics
 import subprocess
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.join(HERE, "..", "..", "blender_tests")]   # tube_scene; the tests' helpers
 import arap_test_utils as U  # noqa: E402
 
 U.enable_addon()
-import batch_scenes as S  # noqa: E402  (after enable_addon: it uses the add-on's api)
-import test_batch as T  # noqa: E402  (launcher lookup and environment)
+import batch_fixtures as F  # noqa: E402  (after enable_addon: it uses the add-on's api)
 
 argv = sys.argv[sys.argv.index("--") + 1:]
 work = os.path.abspath(argv[0])
@@ -36,7 +36,7 @@ src = os.path.join(work, "in")
 shutil.rmtree(work, ignore_errors=True)
 os.makedirs(src)
 for k in range(n):
-    S.make_good(os.path.join(src, "f%02d.blend" % k), vertices=64, cuts=120, dx=0.3 + 0.02 * k)
+    F.make_good(os.path.join(src, "f%02d.blend" % k), vertices=64, cuts=120, dx=0.3 + 0.02 * k)
 
 
 
@@ -57,7 +57,7 @@ def slurm_breakdown(folder, report):
             % ("/".join("%.2f" % x for x in starts), "/".join("%.2f" % x for x in ends), total))
 
 
-env, cluster = T.blender_env(), None
+env, cluster = F.blender_env(), None
 if use_slurm:
     import slurm_cluster  # noqa: E402
     cluster = slurm_cluster.SlurmCluster().start()
@@ -72,7 +72,7 @@ try:
         for name, opts in ways:
             out = os.path.join(work, "out")
             shutil.rmtree(out, ignore_errors=True)
-            p = subprocess.run([T.PYTHON, T.LAUNCHER, src, "--output", out] + opts + extra,
+            p = subprocess.run([F.PYTHON, F.LAUNCHER, src, "--output", out] + opts + extra,
                                capture_output=True, text=True, env=env)
             summary = [l for l in p.stdout.splitlines() if " file(s): " in l][-1]
             rates[name].append(float(re.search(r"\(([\d.]+) files/min", summary).group(1)))

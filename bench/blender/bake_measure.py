@@ -5,7 +5,7 @@
 # first frame's naive guess).
 #
 #   BLENDER_USER_SCRIPTS=<build>/blender_tests/user_scripts blender --background --factory-startup \
-#       -noaudio --python-exit-code 1 --python blender_tests/bake_measure.py -- [DZ TWIST]
+#       -noaudio --python-exit-code 1 --python bench/blender/bake_measure.py -- [DZ TWIST]
 #
 # DZ: the top's height change over the shot (default -0.3: compresses the bar,
 # which buckles); TWIST: turn about z in radians (default 0.3).
@@ -17,7 +17,8 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.join(HERE, "..", "..", "blender_tests")]   # tube_scene; the tests' helpers
 import arap_test_utils as U  # noqa: E402
 
 U.enable_addon()

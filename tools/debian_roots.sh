@@ -1,5 +1,5 @@
 # Debian roots for the version matrix and the distribution build (sourced by
-# blender_tests/version_matrix.sh and addon/build_dist.sh; needs root).
+# tools/version_matrix.sh and tools/build_dist.sh; needs root).
 #
 #   make_root <suite> <folder>             debootstrap --variant=minbase once; reused afterwards
 #   root_run <folder> <checkout> <cmd...>  run a command inside, with proc/sys/dev mounted and the

@@ -2,7 +2,7 @@
 # the main thread's time per Live update, and how far the Empty trails the
 # mouse during a G drag. Not a test (no assertions): a measurement.
 #
-#   xvfb-run -a -s "-screen 0 1280x800x24" python3 blender_tests/gui/measure_live_lag.py \
+#   xvfb-run -a -s "-screen 0 1280x800x24" python3 bench/blender/measure_live_lag.py \
 #       --blender blender --addon-dir build/addon --sizes 10000,50000,156000 --out build/lag [--label new]
 #
 # Per size: Blender starts with lag_session.py (a tube, bottom fifth fixed, top
@@ -27,7 +27,9 @@ import subprocess
 import sys
 import time
 
-from gui_driver import Gui
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "..", "blender_tests", "gui"))
+from gui_driver import Gui  # noqa: E402  (the GUI suite's driver: Blender in a window, xdotool)
 
 STEPS, STEP_PX, STEP_S = 60, 5, 1.0 / 60.0
 
@@ -65,7 +67,7 @@ def when_pointer_reached(pointer, px):
 
 
 def measure(blender, addon_dir, vertices, out):
-    gui = Gui(blender, out, "lag_session.py", os.path.abspath(addon_dir), str(vertices))
+    gui = Gui(blender, out, os.path.join(HERE, "lag_session.py"), os.path.abspath(addon_dir), str(vertices))
     try:
         s0 = gui.wait("scene set-up", lambda s: s.get("ready") and "viewport_centre" in s, timeout=600)
         gui.settle()

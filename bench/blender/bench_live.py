@@ -2,7 +2,7 @@
 # modifier driven by a Hook modifier: same mesh, same anchors, same empty motion.
 #
 #   blender --background --factory-startup -noaudio --python-exit-code 1 \
-#       --python blender_tests/bench_live.py -- [--addon-dir BUILD/addon] \
+#       --python bench/blender/bench_live.py -- [--addon-dir BUILD/addon] \
 #       [--sizes 10000,50000,200000] [--frames 30] [--iterations 2] [--lap-budget 60] [--output DIR]
 #
 # --addon-dir: the folder holding the staged arap_deform package (BUILD/addon);
@@ -28,12 +28,12 @@ import time
 
 import bpy
 import numpy as np
-from mathutils import Vector
+from mathutils import Matrix, Vector
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.join(HERE, "..", "..", "blender_tests")]   # tube_scene; the tests' helpers
 import arap_test_utils as U  # noqa: E402
-from tube_scene import (add_empty, add_group, clear_scene, laplacian_with_hook, load_addon,  # noqa: E402
-                        make_tube, move, offsets)
+from tube_scene import add_group, laplacian_with_hook, make_tube, move, offsets  # noqa: E402
 
 
 def parse_args():
@@ -58,7 +58,7 @@ def posed_tube(api, name, vertices):
     add_group(obj, "fixed", fixed)
     add_group(obj, "top", top)
     start = Vector((0.0, 0.0, h))
-    empty = add_empty(name + "Handle", start)
+    empty = U.add_empty(name + "Handle", Matrix.Translation(start))
     bpy.context.view_layer.update()
     api.set_fixed(obj, "fixed")
     api.add_handle(obj, "top", empty)
@@ -130,7 +130,7 @@ def bench_settle(api, vertices, drag_updates=10, timer_interval_ms=1000.0 / 30.0
 def bench_laplacian(vertices, frames, iterations, budget_s):
     obj, fixed, top, h = make_tube("LapTube", vertices)
     start = Vector((0.0, 0.0, h))
-    empty = add_empty("LapHandle", start)
+    empty = U.add_empty("LapHandle", Matrix.Translation(start))
     bind_ms = laplacian_with_hook(obj, fixed, top, empty, start, iterations)
     wall = []
     path = offsets(frames, h)
@@ -160,15 +160,15 @@ def summary(ms):
 
 def main():
     args = parse_args()
-    load_addon(args.addon_dir)
+    U.load_addon(args.addon_dir)
     api = U.addon("api")
     rows = []
     for n in [int(x) for x in args.sizes.split(",") if x]:
-        clear_scene()
+        U.clear_scene()
         ours = bench_ours(api, n, args.frames, args.iterations)
-        clear_scene()
+        U.clear_scene()
         lap = bench_laplacian(n, args.frames, args.iterations, args.lap_budget)
-        clear_scene()
+        U.clear_scene()
         row = {"target_vertices": n, "ours": ours, "laplacian": lap,
                "ours_frame": summary(ours["frame_ms"]), "ours_solve": summary(ours["solve_ms"]),
                "laplacian_frame": summary(lap["frame_ms"])}
@@ -181,7 +181,7 @@ def main():
 
     settle = []
     for n in [int(x) for x in args.settle_sizes.split(",") if x]:
-        clear_scene()
+        U.clear_scene()
         r = bench_settle(api, n)
         settle.append(r)
         print("%7d vertices: settled %d updates after the last move, %.0f ms CPU (%.0f ms wall; %.0f ms in a 30 Hz "
