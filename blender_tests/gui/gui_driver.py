@@ -1,5 +1,5 @@
 # Driving a real Blender window under Xvfb (drive_gui.py, the GUI suite;
-# measure_live_lag.py, the Live latency measurement): start Blender with its
+# bench/blender/measure_live_lag.py, the Live latency measurement): start Blender with its
 # UI and a session script, read the state it writes (state.json), send it
 # commands (cmd_* files) and real X input (xdotool), take screenshots.
 import json
