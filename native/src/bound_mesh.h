@@ -12,7 +12,7 @@
 #include "arap/options.h"
 #include "arap/solver.h"
 #include "infill.h"
-#include "default_init.h"
+#include "runtime/large_buffer.h"
 
 namespace arap {
 

@@ -8,16 +8,16 @@
 #include <string>
 
 #include "anderson.h"
-#include "block_cholesky.h"
 #include "bound_mesh.h"
 #include "infill.h"
 #include "infill_volume.h"
 #include "initial_guess.h"
 #include "lbfgs.h"
+#include "linalg/spd_solve.h"
 #include "local_step.h"
-#include "prefault.h"
+#include "runtime/prefault.h"
+#include "runtime/vector_halves.h"
 #include "unit_scale.h"
-#include "vector_halves.h"
 #include "volume.h"
 
 namespace arap {
