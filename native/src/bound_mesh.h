@@ -10,7 +10,7 @@
 
 #include "arap/mesh_check.h"
 #include "arap/options.h"
-#include "arap/solver.h"
+#include "arap/types.h"
 #include "infill.h"
 #include "runtime/large_buffer.h"
 

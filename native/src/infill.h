@@ -36,7 +36,7 @@
 #include <array>
 #include <vector>
 
-#include "arap/solver.h"
+#include "arap/types.h"
 #include "arap/weights.h"
 
 namespace arap {
