@@ -176,7 +176,9 @@ TEST(BlockCholesky, PostorderStaysWithinParts) {
     const int part = j < bounds[1] ? 0 : j < bounds[2] ? 1 : 2;
     EXPECT_GE(position[j], bounds[part]);
     EXPECT_LT(position[j], bounds[part + 1]);
-    if (parent[j] >= 0 && parent[j] < bounds[part + 1]) EXPECT_LT(position[j], position[parent[j]]);
+    if (parent[j] >= 0 && parent[j] < bounds[part + 1]) {
+      EXPECT_LT(position[j], position[parent[j]]);
+    }
   }
 }
 

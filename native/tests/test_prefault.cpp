@@ -123,7 +123,9 @@ TEST(LargeAllocation, AlignedZeroedWritableToTheLastByteAndAdvisedUnlessSwitched
     for (std::size_t k = 0; k < bytes; k += 4099) ASSERT_EQ(data[k], static_cast<unsigned char>(k * 7)) << bytes;
     ASSERT_EQ(data[bytes - 1], static_cast<unsigned char>((bytes - 1) * 7)) << bytes;
     // Every size here maps at least one whole 2 MiB (1 MiB is at least half of its 2 MiB).
-    if (transparent_huge_pages_configured()) EXPECT_TRUE(advised_huge(data, data + bytes)) << bytes;
+    if (transparent_huge_pages_configured()) {
+      EXPECT_TRUE(advised_huge(data, data + bytes)) << bytes;
+    }
     arap::free_large(data, bytes);
   }
   setenv("ARAP_NO_HUGE_PAGES", "1", 1);
