@@ -1,5 +1,5 @@
 // arap-deform: deform a mesh file with constraints from a scenario JSON or
-// from index files, write the result (and a JSON report). See kDeformUsage.
+// from index files, write the result (and a JSON report). See deform_usage().
 #include <time.h>
 #include <unistd.h>
 
@@ -184,7 +184,7 @@ int main(int argc, char** argv) {
   try {
     const cli::DeformArgs args = cli::parse_deform_args(argc, argv);
     if (args.help) {
-      std::fputs(cli::kDeformUsage, stdout);
+      std::fputs(cli::deform_usage().c_str(), stdout);
       return 0;
     }
     return run(args);

@@ -1,5 +1,8 @@
 #include "deform_args.h"
 
+#include <algorithm>
+#include <cstdio>
+#include <map>
 #include <sstream>
 #include <utility>
 
@@ -8,7 +11,13 @@
 
 namespace arap::cli {
 
-const char* const kDeformUsage = R"(Usage:
+namespace {
+
+// The text of --help. In it, {NAME} stands for the default of option NAME as
+// users write it, {NAME choices} for its choices ("a | b | c") and {NAME list}
+// for one line per choice with its note from kChoiceNotes, the default's
+// marked: every default and choice it prints comes from arap::option_specs().
+const char* const kUsageTemplate = R"(Usage:
   arap-deform --scenario S.json [--iterations N] [options] --output OUT.off [--report R.json]
   arap-deform INPUT.obj [--fixed fixed.txt] --handle handle.txt --translate DX,DY,DZ
               [--rotate AXIS,DEGREES] [--handle h2.txt --translate ...] ... [options] --output OUT.obj
@@ -34,34 +43,19 @@ Inputs:
 
 Solver options (the defaults solve until the pose has settled):
   --method NAME         how the energy is minimised:
-                          quasi-newton  L-BFGS with the factored Laplacian as its
-                                        first Hessian and a line search (Liu et
-                                        al. 2017): the default, 4-5x less CPU to
-                                        the same minimum than local-global
-                          local-global  the textbook alternation of Sorkine &
-                                        Alexa 2007, one local and one global step
-                                        per iteration
-                          anderson      local-global with Anderson acceleration
-                                        (Peng et al. 2018), window --anderson M
-  --iterations N        safety cap on the iterations (default 1000); a solve that
+{method list}
+  --iterations N        safety cap on the iterations (default {max_iterations}); a solve that
                         reaches it says so on stderr
   --tolerance T         stop when an iteration lowers the energy by <= T * E
-                        (default 1e-6; 0 = run until the energy stops falling
+                        (default {tolerance}; 0 = run until the energy stops falling
                         or the cap)
-  --init NAME           first guess: differential | naive | laplacian (default naive)
-  --weights NAME        cotan | cotan-clamped | uniform (default cotan-clamped)
-  --threads K           worker threads (default 1)
-  --anderson M          Anderson window (default 5); alone it implies --method anderson
+  --init NAME           first guess: {init choices} (default {init})
+  --weights NAME        {weights choices} (default {weights})
+  --threads K           worker threads (default {threads})
+  --anderson M          Anderson window (default {anderson_window}); alone it implies --method anderson
   --volume MODE         what keeps thick parts from losing volume where they bend:
-                          none    surface ARAP only (default)
-                          global  the enclosed volume of every closed part kept
-                                  exactly (open parts are left alone);
-                                  quasi-newton or local-global
-                          infill  a coarse lattice filling the inside, posed
-                                  as-rigid-as-possible with the surface bound
-                                  to it: keeps local volume and cross-sections,
-                                  on any mesh (open ones too)
-  --infill-resolution N lattice cells along the mesh's longest side (default 10)
+{volume list}
+  --infill-resolution N lattice cells along the mesh's longest side (default {infill_resolution})
   The textbook iteration of the paper, e.g. to compare energies with other
   implementations: --method local-global --iterations N --tolerance 0.
 
@@ -75,6 +69,94 @@ Exit status: 0 on success; 2 on bad input (arguments, unreadable or malformed
 files, out-of-range indices, non-finite targets), with one line on stderr and
 no output or report file written; 1 on an internal error.
 )";
+
+// What each method and volume mode does, for {method list} and {volume list}:
+// lines of the note, the first beside the name.
+const std::map<std::string, std::vector<const char*>> kChoiceNotes = {
+    {"quasi-newton",
+     {"L-BFGS with the factored Laplacian as its", "first Hessian and a line search (Liu et",
+      "al. 2017): 4-5x less CPU to the same", "minimum than local-global"}},
+    {"local-global",
+     {"the textbook alternation of Sorkine &", "Alexa 2007, one local and one global step", "per iteration"}},
+    {"anderson", {"local-global with Anderson acceleration", "(Peng et al. 2018), window --anderson M"}},
+    {"none", {"surface ARAP only"}},
+    {"global",
+     {"the enclosed volume of every closed part kept", "exactly (open parts are left alone);",
+      "quasi-newton or local-global"}},
+    {"infill",
+     {"a coarse lattice filling the inside, posed", "as-rigid-as-possible with the surface bound",
+      "to it: keeps local volume and cross-sections,", "on any mesh (open ones too)"}},
+};
+
+// --init warm: one solve has no previous solution to start from.
+bool refused_here(const std::string& option, const std::string& choice) {
+  return option == "init" && choice == "warm";
+}
+
+// A number as users write it: 1000, 0.5, 1e-6.
+std::string shown(double x) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", x);
+  std::string s = text;
+  const std::size_t e = s.find('e');
+  if (e == std::string::npos) return s;
+  std::size_t digits = e + 1;
+  if (s[digits] == '+') s.erase(digits, 1);
+  else if (s[digits] == '-') ++digits;
+  while (digits + 1 < s.size() && s[digits] == '0') s.erase(digits, 1);
+  return s;
+}
+
+std::string default_of(const OptionSpec& spec) {
+  const Options defaults;
+  return spec.kind == OptionKind::Choice ? spec.get_choice(defaults) : shown(spec.get_number(defaults));
+}
+
+std::string choices_of(const OptionSpec& spec) {
+  std::string out;
+  for (const std::string& c : spec.choices)
+    if (!refused_here(spec.name, c)) out += (out.empty() ? "" : " | ") + c;
+  return out;
+}
+
+// One line per choice, its note in a column after the longest name; " (default)" after the default's.
+std::string list_of(const OptionSpec& spec) {
+  std::size_t width = 0;
+  for (const std::string& c : spec.choices) width = std::max(width, c.size());
+  const std::string indent(26, ' '), note_indent(26 + width + 2, ' ');
+  const std::string default_choice = default_of(spec);
+  std::string out;
+  for (const std::string& c : spec.choices) {
+    const auto found = kChoiceNotes.find(c);
+    const std::vector<const char*> note = found == kChoiceNotes.end() ? std::vector<const char*>{""} : found->second;
+    for (std::size_t k = 0; k < note.size(); ++k) {
+      std::string line = k == 0 ? indent + c + std::string(width + 2 - c.size(), ' ') : note_indent;
+      line += note[k];
+      if (c == default_choice && k + 1 == note.size()) line += " (default)";
+      while (!line.empty() && line.back() == ' ') line.pop_back();
+      out += (out.empty() ? "" : "\n") + line;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string deform_usage() {
+  std::string text = kUsageTemplate;
+  auto fill = [&](const std::string& placeholder, const std::string& value) {
+    for (std::size_t at = text.find(placeholder); at != std::string::npos;
+         at = text.find(placeholder, at + value.size()))
+      text.replace(at, placeholder.size(), value);
+  };
+  for (const OptionSpec& spec : option_specs()) {
+    const std::string name = spec.name;
+    fill("{" + name + " list}", list_of(spec));
+    fill("{" + name + " choices}", choices_of(spec));
+    fill("{" + name + "}", default_of(spec));
+  }
+  return text;
+}
 
 namespace {
 
@@ -168,7 +250,7 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
       h.rotate_degrees = parse_number(arg, parts[1]);
     } else if (const char* option = option_of_flag(arg)) {
       const std::string text = value();
-      if (arg == "--init" && text == "warm") throw UsageError("--init warm makes no sense for a single solve");
+      if (refused_here(option, text)) throw UsageError(arg + " " + text + " makes no sense for a single solve");
       set_option(a.options, arg, option, text);
       method_given = method_given || arg == "--method";
       anderson_given = anderson_given || arg == "--anderson";

@@ -38,6 +38,7 @@ struct DeformArgs {
 // Throws UsageError naming the offending argument.
 DeformArgs parse_deform_args(int argc, const char* const* argv);
 
-extern const char* const kDeformUsage;
+// The text of --help; the defaults and choices it names are arap::option_specs()'.
+std::string deform_usage();
 
 }  // namespace arap::cli

@@ -8,8 +8,8 @@
 #include "arap/errors.h"
 #include "arap/weights.h"
 #include "edge_groups.h"
-#include "prefault.h"
-#include "sorted_column.h"
+#include "linalg/spd_solve.h"
+#include "runtime/prefault.h"
 #include "vertex_order.h"
 
 namespace arap {

@@ -10,9 +10,9 @@
 
 #include "arap/mesh_check.h"
 #include "arap/options.h"
-#include "arap/solver.h"
+#include "arap/types.h"
 #include "infill.h"
-#include "default_init.h"
+#include "runtime/large_buffer.h"
 
 namespace arap {
 

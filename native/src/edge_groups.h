@@ -8,7 +8,7 @@
 #include <Eigen/Core>
 
 #include "arap/options.h"
-#include "default_init.h"
+#include "runtime/large_buffer.h"
 
 namespace arap {
 

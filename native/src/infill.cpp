@@ -16,7 +16,7 @@ namespace arap {
 
 namespace {
 
-// kappa and beta of infill.h: measured on the shared scenarios (README, "Keeping the volume").
+// kappa and beta of infill.h (how they were chosen: docs/engine_internals.md).
 constexpr double kLatticeStiffness = 10;
 constexpr double kCoupling = 4;
 // More lattice cubes than this (over all components) is refused: lower the resolution.

@@ -24,10 +24,10 @@
 //    triangles, beta = 4). With the rotations fixed, v's coupling energy is
 //    least at q_k + R (p_v - q_k)_rest: the surface follows the lattice
 //    softly, and rotates with it. One edge rather than the tetrahedron's four
-//    (each weighted by its barycentric weight, as first built): the coupling
-//    made most of the spokes of the local step and most of the factor's
-//    fill-in, and one edge, twice as stiff, kept as much volume, crossed
-//    itself less and cost less per iteration on most meshes (README, "Keeping the volume").
+//    (each weighted by its barycentric weight), which would make most of the
+//    spokes of the local step and most of the factor's fill-in: one edge,
+//    twice as stiff, keeps as much volume and crosses itself less
+//    (docs/engine_internals.md).
 // ARAP alone does not resist volume change more than any change of shape
 // (a material of Poisson's ratio 0): the lattice also carries a bulk term,
 // see infill_volume.h (gamma = kInfillBulk).
@@ -36,7 +36,7 @@
 #include <array>
 #include <vector>
 
-#include "arap/solver.h"
+#include "arap/types.h"
 #include "arap/weights.h"
 
 namespace arap {

@@ -5,8 +5,8 @@
 
 #include <Eigen/SparseCore>
 
-#include "block_cholesky.h"
 #include "bound_mesh.h"
+#include "linalg/spd_solve.h"
 
 namespace arap {
 

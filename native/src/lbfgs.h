@@ -10,7 +10,7 @@
 
 #include <Eigen/Core>
 
-#include "vector_halves.h"
+#include "runtime/vector_halves.h"
 
 namespace arap {
 

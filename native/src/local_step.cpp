@@ -4,7 +4,7 @@
 #include <atomic>
 
 #include "arap/rotation_fit.h"
-#include "worker_threads.h"
+#include "runtime/worker_threads.h"
 
 namespace arap {
 

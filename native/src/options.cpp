@@ -95,59 +95,68 @@ std::string joined(const std::vector<std::string>& names) {
 
 constexpr double kUnbounded = std::numeric_limits<double>::infinity();
 
+// An option with nothing read or written yet; Integer and Real ones accept [min, max].
+OptionSpec option(const char* name, OptionKind kind, double min = 0, double max = 0) {
+  OptionSpec o;
+  o.name = name;
+  o.kind = kind;
+  o.min = min;
+  o.max = max;
+  return o;
+}
+
 std::vector<OptionSpec> make_specs() {
   std::vector<OptionSpec> specs;
-  OptionSpec o{};
-  o = {"method", OptionKind::Choice};
+  OptionSpec o = option("method", OptionKind::Choice);
   o.choices = {"quasi-newton", "local-global", "anderson"};
   o.get_choice = [](const Options& x) { return to_string(x.method); };
   o.set_choice = [](Options& x, const std::string& v) { x.method = parse_method(v); };
   specs.push_back(o);
-  o = {"weights", OptionKind::Choice};
+  o = option("weights", OptionKind::Choice);
   o.choices = {"cotan-clamped", "cotan", "uniform"};
   o.get_choice = [](const Options& x) { return to_string(x.weights); };
   o.set_choice = [](Options& x, const std::string& v) { x.weights = parse_weights(v); };
   o.needs_bind = true;
   specs.push_back(o);
-  o = {"init", OptionKind::Choice};
+  o = option("init", OptionKind::Choice);
   o.choices = {"naive", "laplacian", "differential", "warm"};
   o.get_choice = [](const Options& x) { return to_string(x.init); };
   o.set_choice = [](Options& x, const std::string& v) { x.init = parse_initial_guess(v); };
   specs.push_back(o);
-  o = {"cold_start", OptionKind::Choice};
+  o = option("cold_start", OptionKind::Choice);
   o.choices = {"naive", "laplacian", "differential"};
   o.get_choice = [](const Options& x) { return to_string(x.cold_start); };
   o.set_choice = [](Options& x, const std::string& v) { x.cold_start = parse_initial_guess(v); };
   specs.push_back(o);
   // The cap bounds what a solve reserves for its statistics (16 bytes an iteration).
-  o = {"max_iterations", OptionKind::Integer, 0, 1000000};
+  o = option("max_iterations", OptionKind::Integer, 0, 1000000);
   o.get_number = [](const Options& x) { return double(x.max_iterations); };
   o.set_number = [](Options& x, double v) { x.max_iterations = static_cast<int>(v); };
   specs.push_back(o);
-  o = {"tolerance", OptionKind::Real, 0, 1};
+  o = option("tolerance", OptionKind::Real, 0, 1);
   o.get_number = [](const Options& x) { return x.tolerance; };
   o.set_number = [](Options& x, double v) { x.tolerance = v; };
   specs.push_back(o);
-  o = {"threads", OptionKind::Integer, 1, 64};
+  o = option("threads", OptionKind::Integer, 1, 64);
   o.get_number = [](const Options& x) { return double(x.threads); };
   o.set_number = [](Options& x, double v) { x.threads = static_cast<int>(v); };
   specs.push_back(o);
-  o = {"anderson_window", OptionKind::Integer, 0, 20};
+  o = option("anderson_window", OptionKind::Integer, 0, 20);
   o.get_number = [](const Options& x) { return double(x.anderson_window); };
   o.set_number = [](Options& x, double v) { x.anderson_window = static_cast<int>(v); };
   specs.push_back(o);
-  o = {"volume", OptionKind::Choice};
+  o = option("volume", OptionKind::Choice);
   o.choices = {"none", "global", "infill"};
   o.get_choice = [](const Options& x) { return to_string(x.volume); };
   o.set_choice = [](Options& x, const std::string& v) { x.volume = parse_volume(v); };
   o.needs_bind = true;
   specs.push_back(o);
-  o = {"infill_resolution", OptionKind::Integer, 2, 256};
+  o = option("infill_resolution", OptionKind::Integer, 2, 256);
   o.get_number = [](const Options& x) { return double(x.infill_resolution); };
   o.set_number = [](Options& x, double v) { x.infill_resolution = static_cast<int>(v); };
   o.needs_bind = true;
   specs.push_back(o);
-  o = {"time_budget_ms", OptionKind::Real, 0, kUnbounded};
+  o = option("time_budget_ms", OptionKind::Real, 0, kUnbounded);
   o.get_number = [](const Options& x) { return x.time_budget_ms; };
   o.set_number = [](Options& x, double v) { x.time_budget_ms = v; };
   specs.push_back(o);

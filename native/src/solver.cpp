@@ -8,16 +8,16 @@
 #include <string>
 
 #include "anderson.h"
-#include "block_cholesky.h"
 #include "bound_mesh.h"
 #include "infill.h"
 #include "infill_volume.h"
 #include "initial_guess.h"
 #include "lbfgs.h"
+#include "linalg/spd_solve.h"
 #include "local_step.h"
-#include "prefault.h"
+#include "runtime/prefault.h"
+#include "runtime/vector_halves.h"
 #include "unit_scale.h"
-#include "vector_halves.h"
 #include "volume.h"
 
 namespace arap {
@@ -58,10 +58,9 @@ double squared_norm_in(const Eigen::SparseMatrix<double>& A, const double* s, in
   });
 }
 
-// Pairs of (s, y) the quasi-Newton method remembers. On dino (H0 scaled, see
-// kMaxH0Scale) 3, 4, 6, 8 and 10 pairs reach the band in 73, 62, 61, 61 and 62
-// iterations; each pair costs two passes over the free positions, so 4 is as
-// quick as any in CPU time.
+// Pairs of (s, y) the quasi-Newton method remembers: beyond 4 a pair saves
+// hardly an iteration, and each costs two passes over the free positions
+// (iterations against pairs: docs/engine_internals.md).
 constexpr int kQuasiNewtonHistory = 4;
 // Armijo's sufficient-decrease constant and the most trial points per iteration.
 constexpr double kArmijo = 1e-4;
@@ -73,9 +72,9 @@ constexpr int kLineSearchTrials = 3;
 // where no cell is inverted). As Nocedal & Wright scale H0 = gamma I by the
 // last pair (eq. 7.20), we scale L^-1 by that quotient: of the two
 // Barzilai-Borwein quotients in L's metric, the one that needs a product with
-// L, not a solve. It is the larger of the two, so it is kept in [1, kMaxH0Scale]
-// (dino: 76 iterations to the band unscaled, 62 with a cap of 2, 63 with 3, 111
-// with 5; with no pair stored the step stays plain).
+// L, not a solve. It is the larger of the two, so it is kept in [1, kMaxH0Scale]:
+// unscaled or capped higher, the method needs more iterations than with a cap
+// of 2 (docs/engine_internals.md). With no pair stored the step stays plain.
 constexpr double kMaxH0Scale = 2.0;
 // Volume::Global: halvings of a plain step whose return onto the volume
 // constraint raised the energy (the step itself lowers it to first order).

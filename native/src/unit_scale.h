@@ -9,7 +9,8 @@
 // a mesh scaled by 2^k gives the same result scaled by 2^k.
 #pragma once
 
-#include "arap/solver.h"
+#include "arap/solve_stats.h"
+#include "arap/types.h"
 
 namespace arap {
 

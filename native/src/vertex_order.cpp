@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "prefault.h"
+#include "runtime/prefault.h"
 
 namespace arap {
 

@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "arap/weights.h"
-#include "default_init.h"
 #include "edge_groups.h"
+#include "runtime/large_buffer.h"
 
 namespace arap {
 

@@ -22,7 +22,7 @@
 
 #include <vector>
 
-#include "arap/solver.h"
+#include "arap/types.h"
 #include "bound_mesh.h"
 
 namespace arap {

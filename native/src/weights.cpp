@@ -5,9 +5,9 @@
 #include <Eigen/Geometry>
 
 #include "arap/mesh_check.h"
-#include "default_init.h"
 #include "edge_groups.h"
-#include "prefault.h"
+#include "runtime/large_buffer.h"
+#include "runtime/prefault.h"
 
 namespace arap {
 

@@ -12,7 +12,7 @@
 
 #include <Eigen/Core>
 
-#include "arap/solver.h"
+#include "arap/types.h"
 
 namespace arap {
 

@@ -1,4 +1,4 @@
-// The bind's sparse Cholesky (block_cholesky.h, supernodal_cholesky.h): its
+// The bind's sparse Cholesky (linalg/spd_solve.h, supernodal_cholesky.h): its
 // solve against Eigen's on procedural matrices, small (one part) and split
 // (two halves and a separator, >= 20k rows), one thread against two (solve
 // and factor), and a clean refusal of matrices that are not positive definite.
@@ -13,9 +13,9 @@
 #include <vector>
 
 #include "arap/procedural.h"
-#include "block_cholesky.h"
-#include "dense_kernels.h"
-#include "supernodal_cholesky.h"
+#include "linalg/dense_kernels.h"
+#include "linalg/spd_solve.h"
+#include "linalg/supernodal_cholesky.h"
 #include "test_matrices.h"
 
 namespace {
@@ -176,7 +176,9 @@ TEST(BlockCholesky, PostorderStaysWithinParts) {
     const int part = j < bounds[1] ? 0 : j < bounds[2] ? 1 : 2;
     EXPECT_GE(position[j], bounds[part]);
     EXPECT_LT(position[j], bounds[part + 1]);
-    if (parent[j] >= 0 && parent[j] < bounds[part + 1]) EXPECT_LT(position[j], position[parent[j]]);
+    if (parent[j] >= 0 && parent[j] < bounds[part + 1]) {
+      EXPECT_LT(position[j], position[parent[j]]);
+    }
   }
 }
 

@@ -297,6 +297,51 @@ TEST_F(Cli, HelpExitsZero) {
   EXPECT_NE(r.out.find("the first handle wins"), std::string::npos);
 }
 
+// --help names every solver option's default and choices as arap::option_specs() has them:
+// "(default X)" in each flag's paragraph, or "(default)" on the default's line of a list.
+TEST_F(Cli, HelpTakesDefaultsAndChoicesFromTheOptionTable) {
+  const std::string help = run("--help").out;
+  // The lines from the flag's own to the next flag's.
+  auto paragraph = [&](const std::string& flag) {
+    const std::size_t begin = help.find("\n  " + flag + " ");
+    if (begin == std::string::npos) return std::string();
+    return help.substr(begin + 1, help.find("\n  --", begin + 1) - begin - 1);
+  };
+  const arap::Options defaults;
+  const std::pair<const char*, const char*> flags[] = {
+      {"--method", "method"},       {"--iterations", "max_iterations"}, {"--tolerance", "tolerance"},
+      {"--init", "init"},           {"--weights", "weights"},           {"--threads", "threads"},
+      {"--anderson", "anderson_window"}, {"--volume", "volume"},        {"--infill-resolution", "infill_resolution"}};
+  for (const auto& [flag, name] : flags) {
+    const arap::OptionSpec& spec = arap::option_spec(name);
+    const std::string text = paragraph(flag);
+    ASSERT_FALSE(text.empty()) << flag;
+    if (spec.kind != arap::OptionKind::Choice) {
+      const std::size_t at = text.find("(default ");
+      ASSERT_NE(at, std::string::npos) << text;
+      EXPECT_EQ(std::stod(text.substr(at + 9)), spec.get_number(defaults)) << text;
+      continue;
+    }
+    const std::string chosen = spec.get_choice(defaults);
+    for (const std::string& choice : spec.choices) {
+      if (std::string(spec.name) == "init" && choice == "warm") continue;  // refused: one solve has no last one
+      EXPECT_NE(text.find(choice), std::string::npos) << flag << ' ' << choice;
+    }
+    if (text.find("(default)") == std::string::npos) {
+      EXPECT_NE(text.find("(default " + chosen + ")"), std::string::npos) << text;
+      continue;
+    }
+    // A list, a choice's name at column 26 of its first line: "(default)" ends the default's note.
+    std::istringstream lines(text);
+    std::string line, listed, marked;
+    while (std::getline(lines, line)) {
+      if (line.size() > 26 && line[25] == ' ' && line[26] != ' ') listed = line.substr(26, line.find(' ', 26) - 26);
+      if (line.find("(default)") != std::string::npos) marked = listed;
+    }
+    EXPECT_EQ(marked, chosen) << text;
+  }
+}
+
 // The flags take their limits and messages from arap::option_specs(), the
 // limits the library and the add-on use: the bounds themselves are accepted.
 TEST_F(Cli, OptionLimitsAreTheLibrarys) {

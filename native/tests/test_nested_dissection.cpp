@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "arap/procedural.h"
-#include "block_cholesky.h"
-#include "nested_dissection.h"
+#include "linalg/nested_dissection.h"
+#include "linalg/spd_solve.h"
 #include "test_matrices.h"
 
 namespace {

@@ -1,8 +1,8 @@
-// Large buffers and their pages. prefault (native/src/prefault.h): mapping a
+// Large buffers and their pages. prefault (native/src/runtime/prefault.h): mapping a
 // buffer's pages ahead keeps its contents and its neighbours', makes the pages
 // resident, and offers the whole 2 MiB stretches inside it to transparent huge
 // pages unless ARAP_NO_HUGE_PAGES is set. allocate_large and LargeBuffer
-// (large_allocation.h, default_init.h): 2 MiB-aligned zeroed memory, usable to
+// (large_allocation.h, large_buffer.h): 2 MiB-aligned zeroed memory, usable to
 // the last byte asked for, offered to huge pages the same way.
 #include <gtest/gtest.h>
 
@@ -15,9 +15,9 @@
 #include <unistd.h>
 #include <vector>
 
-#include "default_init.h"
-#include "large_allocation.h"
-#include "prefault.h"
+#include "runtime/large_allocation.h"
+#include "runtime/large_buffer.h"
+#include "runtime/prefault.h"
 
 namespace {
 
@@ -123,7 +123,9 @@ TEST(LargeAllocation, AlignedZeroedWritableToTheLastByteAndAdvisedUnlessSwitched
     for (std::size_t k = 0; k < bytes; k += 4099) ASSERT_EQ(data[k], static_cast<unsigned char>(k * 7)) << bytes;
     ASSERT_EQ(data[bytes - 1], static_cast<unsigned char>((bytes - 1) * 7)) << bytes;
     // Every size here maps at least one whole 2 MiB (1 MiB is at least half of its 2 MiB).
-    if (transparent_huge_pages_configured()) EXPECT_TRUE(advised_huge(data, data + bytes)) << bytes;
+    if (transparent_huge_pages_configured()) {
+      EXPECT_TRUE(advised_huge(data, data + bytes)) << bytes;
+    }
     arap::free_large(data, bytes);
   }
   setenv("ARAP_NO_HUGE_PAGES", "1", 1);

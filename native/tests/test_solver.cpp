@@ -7,7 +7,7 @@
 
 #include "arap/solver.h"
 #include "gradient_check.h"
-#include "nested_dissection.h"
+#include "linalg/nested_dissection.h"
 #include "reference_arap.h"
 #include "test_meshes.h"
 
@@ -319,7 +319,7 @@ TEST(Solver, LargeMeshesSolveTheSameOnOneOrTwoThreadsAndMatchTheTextbook) {
 
 TEST(Solver, VeryLargeMeshesMatchTheTextbook) {
   // 205,000 vertices, 204,000 free: from kDissectionRows free rows the bind orders the factor
-  // both by AMD and by nested dissection and keeps the cheaper (block_cholesky.h).
+  // both by AMD and by nested dissection and keeps the cheaper (linalg/spd_solve.h).
   const LongTube t(500, 410, 60.0, 0, 6.0);
   ASSERT_GE(static_cast<long>(t.mesh.V.rows() - t.constrained.size()), arap::kDissectionRows);
   arap::Solver solver;

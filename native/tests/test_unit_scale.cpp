@@ -115,7 +115,9 @@ TEST(SolveStats, WarmStartReportsAFiniteInitialEnergy) {
     ASSERT_TRUE(std::isfinite(second.initial_energy));
     // The energy it started from: the last solution's, except that the quasi-Newton
     // method first carries the moved targets through with one global step.
-    if (method != arap::Method::QuasiNewton) EXPECT_EQ(second.initial_energy, first.energy.back());
+    if (method != arap::Method::QuasiNewton) {
+      EXPECT_EQ(second.initial_energy, first.energy.back());
+    }
   }
 }
 

@@ -267,8 +267,7 @@ TEST(VolumeInfill, PosesOpenAndSelfIntersectingInputs) {
 // A bar of bar1's proportions (shared scenario, 1:1:5) held at its bottom 4% and its top
 // pulled three times bar1's scenario's pull (3 x (2.5, 0, -3) sides): folded back on itself,
 // the surface alone crosses itself in hundreds of triangle pairs. The coupling of the surface
-// to the lattice (one edge per vertex, beta = 4) keeps the fold's inner side out of itself:
-// with the former coupling (four edges per vertex, beta = 2) it crossed in 0.3x the surface's.
+// to the lattice (one edge per vertex, beta = 4) keeps the fold's inner side out of itself.
 TEST(VolumeInfill, KeepsABarFoldedBackFromCrossingItself) {
   const TriMesh bar = arap::procedural::make_bar_with_vertices(722);
   const auto picked = arap::procedural::pick_by_height(bar.vertices, 2, 0.04, 0.04);

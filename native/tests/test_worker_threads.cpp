@@ -1,4 +1,4 @@
-// The helper threads kept between parallel sections (native/src/worker_threads.h):
+// The helper threads kept between parallel sections (native/src/runtime/worker_threads.h):
 // every part runs once, on its own thread; idle helpers sleep; a forked child
 // and a thread that exits are handled.
 #include <gtest/gtest.h>
@@ -15,7 +15,7 @@
 #include <unistd.h>
 #include <vector>
 
-#include "worker_threads.h"
+#include "runtime/worker_threads.h"
 
 namespace {
 

@@ -12,41 +12,10 @@
 #include "arap/errors.h"
 #include "arap/mesh_check.h"
 #include "arap/options.h"
+#include "arap/solve_stats.h"
 #include "arap/types.h"
 
 namespace arap {
-
-struct SolveStats {
-  double initial_energy = 0;          // energy of the first guess
-  std::vector<double> energy;         // ARAP energy after each iteration (optimal rotations)
-  std::vector<double> iteration_ms;   // wall time of each iteration
-  double init_ms = 0;                 // first guess
-  double rotation_ms = 0;             // local steps (covariance + rotation fit), all iterations
-  double rhs_ms = 0;                  // right-hand side assembly, all iterations
-  double linear_solve_ms = 0;         // triangular solves, all iterations
-  int iterations = 0;
-  bool converged = false;             // stopped on the tolerance, not the budget
-  long rotation_fallbacks = 0;        // 3x3 fits that needed the full SVD
-  long anderson_rejections = 0;       // accelerated steps refused by the energy safeguard
-  double direction_ms = 0;            // quasi-Newton: gradients and the L-BFGS two-loop, all iterations
-  long line_search_steps = 0;         // quasi-Newton: trial points beyond the first of each iteration
-  long quasi_newton_resets = 0;       // quasi-Newton: directions refused (history dropped, plain step taken)
-  double volume_ms = 0;               // Volume::Global: volume gradients and returns onto the constraint
-  double volume_drift = 0;            // Volume::Global: largest |V / V_rest - 1| of a kept component at the end
-};
-
-// How far the solve() in progress has come (Solver::progress(), readable from another thread).
-struct SolveProgress {
-  int iterations = 0;    // iterations done so far
-  double energy = 0;     // the energy after the last of them (the first guess's before the first)
-};
-
-struct BindStats {
-  double total_ms = 0;
-  double mesh_ms = 0;      // checks, weights, components, vertex order, Laplacian assembly
-  double ordering_ms = 0;  // fill-reducing ordering (AMD) and symmetric permutation
-  double factor_ms = 0;    // numeric Cholesky factorization
-};
 
 class SolveWorker;
 

@@ -4,9 +4,10 @@
 // the volume tests use these to check the solver's results.
 #pragma once
 
+#include <utility>
 #include <vector>
 
-#include "arap/solver.h"
+#include "arap/types.h"
 
 namespace arap::measure {
 

@@ -1,4 +1,4 @@
-#include "block_cholesky.h"
+#include "spd_solve.h"
 
 #include <algorithm>
 #include <chrono>
@@ -7,10 +7,10 @@
 #include <Eigen/SparseCholesky>
 
 #include "nested_dissection.h"
-#include "prefault.h"
+#include "runtime/prefault.h"
+#include "runtime/vector_halves.h"
+#include "runtime/worker_threads.h"
 #include "sorted_column.h"
-#include "vector_halves.h"
-#include "worker_threads.h"
 
 namespace arap {
 

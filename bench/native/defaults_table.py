@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Measure the choices behind the defaults (README, "Defaults, and why").
 
-    python3 native/bench/defaults_table.py build/arap-deform ../shared/scenarios > defaults.md
+    python3 bench/native/defaults_table.py build/arap-deform ../shared/scenarios > defaults.md
 
 For every scenario: (1) the first guesses, with cotangent weights: energy after
 1, 10 and 200 iterations and the iterations needed to come within 1e-3

@@ -1,6 +1,12 @@
-// Sparse Cholesky of a symmetric positive definite matrix with a triangular
-// solve that streams the factor once for three right-hand sides at a time
-// (x, y, z of every vertex), instead of once per column as Eigen's solve does.
+// The sparse symmetric positive definite solve (the global step's Laplacian,
+// the differential guess's normal equations): the one header of linalg/ that
+// the ARAP code includes. The rest of linalg/ is its inside: the orderings
+// (nested_dissection.h, Eigen's AMD), the numeric factorization
+// (supernodal_cholesky.h) and its dense kernels (dense_kernels.h).
+//
+// BlockCholesky: sparse Cholesky of a symmetric positive definite matrix with
+// a triangular solve that streams the factor once for three right-hand sides at
+// a time (x, y, z of every vertex), instead of once per column as Eigen's solve does.
 //
 // Large matrices are split in two by a separator (one breadth-first level of
 // the matrix graph): each half is ordered on its own (by AMD, or for the
@@ -16,6 +22,7 @@
 #include <Eigen/SparseCore>
 #include <vector>
 
+#include "sorted_column.h"  // insert_sorted, for writing the matrix that factor() takes
 #include "supernodal_cholesky.h"
 
 namespace arap {

@@ -11,7 +11,7 @@
 namespace arap {
 
 // From this many free vertices the Laplacian's factor is split in two halves
-// and a separator (block_cholesky.h) and these vector passes run in halves:
+// and a separator (linalg/spd_solve.h) and these vector passes run in halves:
 // below it a solve or a pass is too short for a second thread.
 constexpr std::ptrdiff_t kSplitRows = 20000;
 constexpr std::ptrdiff_t kSplitLength = 3 * kSplitRows;  // x, y, z of each free vertex

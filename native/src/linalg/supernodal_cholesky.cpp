@@ -7,8 +7,8 @@
 #include <Eigen/Dense>
 
 #include "dense_kernels.h"
-#include "prefault.h"
-#include "worker_threads.h"
+#include "runtime/prefault.h"
+#include "runtime/worker_threads.h"
 
 namespace arap {
 

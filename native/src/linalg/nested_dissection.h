@@ -14,16 +14,10 @@
 //
 // Which of this order and AMD's needs fewer operations depends on the mesh,
 // so BlockCholesky computes both and keeps the cheaper (Ordering::Fewest).
-// On the bind's matrices of the procedural bars and spheres (a band of the
-// surface free, the ends constrained) nested dissection gives 8-22% fewer
-// factor entries from 50k vertices to 1M and 26-55% fewer multiply-adds
-// (21.9 against 42.5 billion on the 1M sphere), and on closed spheres with one
-// vertex constrained 14-23% fewer entries at 100k-1M; but on a box
-// triangulated with all its diagonals one way (every edge weighted) it gives
-// up to 50% more entries than AMD. Graphs with many hubs have wide levels and
-// cut poorly too: with Volume::Infill's lattice nodes, each bound to the
-// surface vertices of its cells, the 20k sphere's factor took 19% longer to
-// apply than with AMD's order.
+// Nested dissection wins on the large bars and spheres; AMD on a box
+// triangulated with all its diagonals one way, and on graphs with many hubs,
+// whose levels are wide (Volume::Infill's lattice nodes, each bound to the
+// surface vertices of its cells). The measurements: docs/engine_internals.md.
 #pragma once
 
 #include <Eigen/SparseCore>
@@ -34,15 +28,13 @@ namespace arap {
 
 // From this many rows on, the bind (BlockCholesky's Ordering::Auto) orders by
 // both and keeps the cheaper. Below, computing the second order costs more
-// than it saves: Ordering::Fewest against Amd on the whole bind (CPU time,
-// alternated) 1.10-1.17 at 50k vertices, 1.10-1.13 at 100k, 1.06 (sphere) and
-// 1.15 (bar) at 250k; at 1M it pays: 0.87 (sphere) and 0.93 (bar).
+// than it saves (the whole bind, Ordering::Fewest against Amd:
+// docs/engine_internals.md).
 constexpr long kDissectionRows = 200000;
 
 // Parts of this many rows or fewer are not cut further: kept in the order the
-// search met them. With 16 or 32 rows the ordering is a little faster, but
-// the factor has 1-8% more entries than with 8 (250k-1M vertices), which
-// every later triangular solve pays for.
+// search met them. Larger leaves order a little faster but leave more entries
+// in the factor, which every later triangular solve pays for.
 constexpr int kDissectionLeafRows = 8;
 
 // Orders `rows` of A (both triangles stored, symmetric pattern); returns them

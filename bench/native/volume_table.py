@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Measure the volume modes (README, "Keeping the volume").
 
-    python3 native/bench/volume_table.py build ../shared/scenarios build/results/volume
+    python3 bench/native/volume_table.py build ../shared/scenarios build/results/volume
 
 For every scenario of the folder (bar1_x2 and bar1_x3 are bar1 x2 and x3, so
 they are not run twice) and five procedural meshes made with arap-make-mesh

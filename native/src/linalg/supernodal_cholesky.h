@@ -19,7 +19,7 @@
 #include <Eigen/SparseCore>
 #include <vector>
 
-#include "default_init.h"
+#include "runtime/large_buffer.h"
 
 namespace arap {
 

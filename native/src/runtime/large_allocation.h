@@ -1,5 +1,5 @@
 // Memory for the largest buffers that live as long as a binding (the factor,
-// the spokes: LargeBuffer in default_init.h) mapped straight from the system,
+// the spokes: LargeBuffer in large_buffer.h) mapped straight from the system,
 // aligned to 2 MiB, so that transparent huge pages can back it: one page fault
 // per 2 MiB instead of 512. Smaller requests go to operator new as usual.
 #pragma once

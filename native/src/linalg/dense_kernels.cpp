@@ -206,7 +206,8 @@ void lower_product_avx2(const double* A, long lda, long m, long k, long w, doubl
   }
   // Many tiles read each row: A is packed once, each group of 8 rows column
   // after column, so that the tiles read it sequentially. (Read in place with
-  // its long stride, the wide blocks made a 1M-vertex bind take 22% more time.)
+  // its long stride, the wide blocks slow the largest binds down:
+  // docs/engine_internals.md.)
   const long row_groups = ldc / kRows;
   pack.resize(static_cast<std::size_t>(row_groups * kRows * w));
   double* p = pack.data();

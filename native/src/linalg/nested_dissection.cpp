@@ -95,9 +95,8 @@ class Dissection {
   }
 
   // The smallest level that leaves at least a quarter of the rows on each
-  // side (a smaller separator pays for the imbalance down to about that: on
-  // the 1M sphere 40% gave 12% more operations, 49% 10% more entries), or -1
-  // if none does. A cut leaves at least 3 rows past it (parts above the leaf
+  // side (a smaller separator pays for the imbalance down to about that:
+  // docs/engine_internals.md), or -1 if none does. A cut leaves at least 3 rows past it (parts above the leaf
   // size have 9 or more), so the separator is never empty.
   int separating_level(const std::vector<int>& level_start) const {
     const int levels = static_cast<int>(level_start.size()) - 1;

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "arap/solver.h"
+#include "arap/types.h"
 
 namespace bench {
 

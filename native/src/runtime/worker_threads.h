@@ -1,12 +1,12 @@
 // Helper threads kept from one parallel section to the next.
 //
-// A quasi-Newton iteration at 100k vertices has about twenty short parallel
-// sections (vector passes of 0.1-0.2 ms, the two halves of each triangular
-// solve, the per-vertex passes). Starting a std::thread for each, or waking a
-// sleeping one, costs about 40 us on a virtual machine: together some 5% of
-// the iteration on two threads. Here each calling thread keeps its helpers:
-// after a section a helper polls for the next one for a short while
-// (kPollMicroseconds) and only then sleeps, so back-to-back sections hand over
+// A quasi-Newton iteration has about twenty short parallel sections (vector
+// passes, the two halves of each triangular solve, the per-vertex passes).
+// Starting a std::thread for each, or waking a sleeping one, costs tens of
+// microseconds, a share of the iteration worth saving (docs/engine_internals.md).
+// Here each calling thread keeps its helpers: after a section a helper polls
+// for the next one for a short while (worker_threads.cpp's poll_microseconds(),
+// ARAP_POLL_US) and only then sleeps, so back-to-back sections hand over
 // in a few microseconds, while nothing polls once a solve has returned (Live
 // sleeping, a batch between meshes) and a busy machine loses at most that
 // short while to a helper with nothing to do.

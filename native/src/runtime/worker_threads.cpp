@@ -37,9 +37,9 @@ int poll_microseconds() {
 // Polls `ready` for a while; false if it did not become true in time. Between
 // looks it yields the core: on an idle machine that returns at once, and on a
 // busy one the thread that shares this core (another program, or the thread
-// being waited for) runs instead of the poll. Measured with a busy loop on
-// one of two cores, two threads at 100k vertices were 0.73-0.77x one thread
-// when polling with the processor's pause instruction, 0.97-0.99x yielding.
+// being waited for) runs instead of the poll (polling with the processor's
+// pause instruction instead made two threads slower than one on a busy
+// machine: docs/engine_internals.md).
 template <class Ready>
 bool poll(const Ready& ready) {
   const auto deadline = Clock::now() + std::chrono::microseconds(poll_microseconds());

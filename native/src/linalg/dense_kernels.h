@@ -46,9 +46,8 @@ bool small_cholesky_in_place(double* A, long lda, long w);
 // small_cholesky_in_place, and solves the rows below it
 // (solve_transposed_avx2). `update` and `pack` are scratch; avx512 as for
 // lower_product_avx2. Only call when have_avx2_fma(). False as
-// small_cholesky_in_place. (Against Eigen's blocked LLT, which this build
-// compiles for SSE2 only, it took 2-5% less bind time on the 250k and 1M
-// spheres with blocks of every width, and 2% less at 10k.)
+// small_cholesky_in_place. (Faster than Eigen's blocked LLT, which this build
+// compiles for SSE2 only: docs/engine_internals.md.)
 bool blocked_cholesky_avx2(double* A, long lda, long w, std::vector<double>& update, std::vector<double>& pack,
                            bool avx512 = false);
 

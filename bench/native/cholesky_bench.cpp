@@ -12,9 +12,9 @@
 #include <vector>
 
 #include "bench_cases.h"
-#include "block_cholesky.h"
 #include "bound_mesh.h"
 #include "cpu_clock.h"
+#include "linalg/spd_solve.h"
 
 namespace {
 

@@ -1,11 +1,11 @@
 """The README's "Keeping the volume" picture: one bent bar posed by surface ARAP,
 Volume Global and Volume Infill, side by side, rendered headlessly by Blender.
 
-    blender --background --factory-startup --python native/bench/render_volume.py -- \\
+    blender --background --factory-startup --python bench/native/render_volume.py -- \\
         build/results/volume bar1_x2 docs/volume_bar1.png
 
 Reads CASE_none.off, CASE_global.off and CASE_infill.off from the folder that
-native/bench/volume_table.py wrote (its solved meshes), and the volume kept by
+bench/native/volume_table.py wrote (its solved meshes), and the volume kept by
 each from that folder's volume.json for the labels.
 """
 
