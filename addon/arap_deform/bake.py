@@ -43,6 +43,7 @@ import numpy as np
 
 from . import anim_compat, constraints, engine, meshio, problem, sessions, temp_files
 from .errors import SetupError
+from .native_loader import native
 
 KEY_PREFIX = "ARAP_f"
 MODIFIER_NAME = "ARAP Bake"
@@ -55,7 +56,6 @@ PROP_MUTED = "arap_bake_muted_live"     # the "ARAP" key was muted by the bake
 # tolerance, each frame starting from the previous one, so baked frames and the frames
 # Auto mode plays are the same poses.
 DEFAULT_ITERATIONS = 2000    # per frame, an upper bound: frames stop on the tolerance
-DEFAULT_ANDERSON = 5         # Anderson window, when the object's method is Anderson
 
 __all__ = ("BakeResult", "Baker", "bake_shape_keys", "bake_pc2", "clear_bake", "PC2Writer", "read_pc2",
            "key_name", "is_baked")
@@ -145,9 +145,10 @@ class Baker:
         self.problem = problem.Problem(obj, self.scene, rest32=bake_rest(obj))
         self.setup = self.problem.setup
         self.rest64 = self.problem.rest64
+        if anderson is None:   # the option's default window, not the object's Acceleration
+            anderson = native().OPTIONS["anderson_window"]["default"]
         self.solver = problem.configured_solver(self.problem, obj.arap, iterations=iterations or DEFAULT_ITERATIONS,
-                                                tolerance=tolerance, warm=True,
-                                                anderson=DEFAULT_ANDERSON if anderson is None else anderson)
+                                                tolerance=tolerance, warm=True, anderson=anderson)
         self.free = np.ones(len(self.rest64), bool)
         self.free[self.setup.constrained] = False
         self.pc2_path = pc2_path
@@ -287,8 +288,9 @@ def bake_shape_keys(obj, start, end, scene=None, iterations=None, tolerance=None
     and 0 at the frames next to it. iterations: at most this many per frame
     (default 2000); tolerance: the solver's tolerance for a frame (default:
     the object's, as Auto mode); the object's method solves (anderson: the
-    window when that is Anderson). Replaces a previous
-    bake; the Basis and base mesh are not modified. Returns a BakeResult
+    window when that is Anderson; default: the option's default window, not
+    the object's Acceleration). Replaces a previous bake; the Basis and base
+    mesh are not modified. Returns a BakeResult
     (energies, iterations, ms per frame). Raises SetupError on a bad set-up,
     with the object unchanged.
     """

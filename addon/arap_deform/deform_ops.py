@@ -9,7 +9,6 @@ done, as one undo step).
 """
 
 import bpy
-from bpy.props import EnumProperty, FloatProperty, IntProperty
 
 from . import engine, errors, properties, sessions, status_overlay
 
@@ -25,14 +24,17 @@ class ARAP_OT_deform(bpy.types.Operator):
     bl_label = "ARAP Deform"
     bl_options = {'REGISTER', 'UNDO'}
 
-    # The redo panel (F9) shows the values the solve used: _job() fills
-    # any not given from the object's settings (properties.py has the tooltips).
-    iterations: IntProperty(name="Iterations", default=100, min=1, max=1000,
-                            description="Most solver rounds; it stops earlier once the pose has settled")
-    tolerance: FloatProperty(name="Tolerance", default=1e-6, min=0.0, max=1.0, precision=7, step=0.0001,
-                             description="Stop when a round improves the pose by less than this fraction")
-    init: EnumProperty(name="Start From", items=properties.INIT_ITEMS, default='NAIVE',
-                       description="The shape the solver starts from")
+    # The redo panel (F9) shows the values the solve used: _start_job() fills any not given from the
+    # object's settings; defaults and limits are the settings' (properties.py, from the option table).
+    iterations: properties.option_int(
+        "max_iterations", name="Iterations", **properties.ITERATIONS_RANGE,
+        description="Most solver rounds; it stops earlier once the pose has settled")
+    tolerance: properties.option_float(
+        "tolerance", name="Tolerance", **properties.TOLERANCE_STYLE,
+        description="Stop when a round improves the pose by less than this fraction")
+    init: properties.option_enum(
+        "init", properties.INIT_ITEMS, properties.INIT_NAMES, name="Start From",
+        description="The shape the solver starts from")
 
     running = None   # the modal Deform's job while it runs (what the viewport's lines show)
 

@@ -11,12 +11,8 @@ import numpy as np
 from . import constraints, meshio
 from .errors import SetupError
 from .native_loader import native
-
-# Blender enum items -> the native module's option values (properties.py defines the items).
-WEIGHT_NAMES = {'COTAN': "cotan", 'COTAN_CLAMPED': "cotan-clamped", 'UNIFORM': "uniform"}
-INIT_NAMES = {'LAPLACIAN': "laplacian", 'DIFFERENTIAL': "differential", 'NAIVE': "naive"}
-METHOD_NAMES = {'QUASI_NEWTON': "quasi-newton", 'LOCAL_GLOBAL': "local-global", 'ANDERSON': "anderson"}
-VOLUME_NAMES = {'NONE': "none", 'GLOBAL': "global", 'INFILL': "infill"}
+# Blender enum items -> the native module's option values (declared with the items).
+from .properties import INIT_NAMES, METHOD_NAMES, VOLUME_NAMES, WEIGHT_NAMES  # noqa: F401
 
 
 def volume_options(settings):
