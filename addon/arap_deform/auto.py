@@ -30,7 +30,7 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from . import bake, constraints, errors, meshio, problem, sessions, status_overlay
+from . import bake, errors, meshio, problem, sessions, status_overlay
 from .errors import SetupError
 from .native_loader import native
 
@@ -70,21 +70,14 @@ class AutoPoser:
         self.settled_at = 0.0        # time.monotonic() when it last settled
         self.worker = None           # the SolveWorker of the viewport's solves while one runs
 
-    def pose(self, obj, depsgraph):
-        """(key, object-local handle transforms) of the evaluated scene; the
-        key is the frame and the world matrices of the object and the Empties."""
-        obj_matrix, mats = self.problem.evaluated_matrices(obj, depsgraph)
-        transforms = constraints.handle_transforms(self.problem.setup, obj_matrix, mats)
-        key = (depsgraph.scene.frame_current,
-               np.concatenate([obj_matrix.ravel()] + [m.ravel() for m in mats]).tobytes())
-        return key, transforms
-
     def update(self, obj, depsgraph, on_worker=False):
         """Bring the mesh to the current pose. Returns True when it is settled
         (False: iterations remain, call again). on_worker: solve on the
         worker's thread and show its newest pose (the viewport); else here,
         to the end (--background, renders)."""
-        key, transforms = self.pose(obj, depsgraph)
+        # The pose key: the frame and the evaluated world matrices of the object and the Empties.
+        pose = self.problem.pose(obj, depsgraph=depsgraph)
+        key = (depsgraph.scene.frame_current, pose.key)
         if key == self.written and self.pending is None:
             return True
         hit = self.cache.get(key)
@@ -95,20 +88,16 @@ class AutoPoser:
             self._settled(True)
             return True
         if on_worker:
-            return self._solve_on_worker(key, transforms)
+            return self._solve_on_worker(key, pose)
         self.stop_worker()
-        return self._solve_here(key, transforms)
+        return self._solve_here(key, pose)
 
-    def _targets(self, transforms):
-        return constraints.fill_targets(self.problem.setup, self.problem.rest_constrained, transforms,
-                                        self.problem.targets)
-
-    def _solve_here(self, key, transforms):
+    def _solve_here(self, key, pose):
         global solve_count
         if self.pending != key:
-            self._warm_start(key, transforms)
+            self._warm_start(key, pose.transforms)
             self.pending, self.iterations = key, 0
-        targets = self._targets(transforms)
+        targets = self.problem.targets(pose)
         self.solver.time_budget_ms = 0.0
         self.solver.max_iterations = max(1, self.max_iterations - self.iterations)
         stats = self.solver.solve(targets, out=self.buffer)
@@ -116,22 +105,22 @@ class AutoPoser:
         self.iterations += stats.iterations
         self.pending = None
         self._write(self.buffer, key)
-        self._remember(key, self.buffer.copy(), transforms)
+        self._remember(key, self.buffer.copy(), pose.transforms)
         self._settled(True)
         return True
 
-    def _solve_on_worker(self, key, transforms):
+    def _solve_on_worker(self, key, pose):
         """New targets go to the worker (which goes on from its current state); its newest pose is
         shown, and cached once it has settled."""
         global solve_count
         if self.pending != key:
             if self.worker is None:
-                self._warm_start(key, transforms)   # the solver is still this thread's: pick the start
+                self._warm_start(key, pose.transforms)   # the solver is still this thread's: pick the start
                 self.solver.time_budget_ms = FRAME_BUDGET_MS
                 self.solver.max_iterations = self.max_iterations
                 self.worker = native().SolveWorker(self.solver, max_iterations=self.max_iterations)
-            self.state_key, self.current = key, [t.copy() for t in transforms]
-            self.worker.post(self._targets(transforms))
+            self.state_key, self.current = key, [t.copy() for t in pose.transforms]
+            self.worker.post(self.problem.targets(pose))
             solve_count += 1
             self.pending, self.iterations = key, 0
         result = self.worker.take(self.buffer)
@@ -144,7 +133,7 @@ class AutoPoser:
         self._write(self.buffer, key if settled else None)
         if settled:
             self.pending = None
-            self._remember(key, self.buffer.copy(), transforms)
+            self._remember(key, self.buffer.copy(), pose.transforms)
             self.stop_worker()
         self._settled(settled)
         return settled

@@ -176,9 +176,9 @@ class Baker:
         return self.frames[min(self.index, len(self.frames) - 1)]
 
     def _targets(self):
-        obj_matrix, mats = self.problem.evaluated_matrices(self.obj, bpy.context.evaluated_depsgraph_get(), self.scene)
-        transforms = constraints.handle_transforms(self.setup, obj_matrix, mats)
-        return constraints.fill_targets(self.setup, self.problem.rest_constrained, transforms, self.problem.targets)
+        """The targets of the frame just set: the handles as evaluated there."""
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        return self.problem.targets(self.problem.pose(self.obj, self.scene, depsgraph))
 
     def _gradient(self, positions):
         g = self.solver.energy_gradient(np.ascontiguousarray(positions, np.float64))
