@@ -123,6 +123,7 @@ class AutoPoser:
             self.worker.post(self.problem.targets(pose))
             solve_count += 1
             self.pending, self.iterations = key, 0
+            self._settled(False)   # a new pose, settling (the worker may have settled it by the take below)
         result = self.worker.take(self.buffer)
         if result is None:
             self._settled(False)
