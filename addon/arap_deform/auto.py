@@ -3,20 +3,22 @@
 like a modifier, with no session to start (Object.arap.auto, saved in the .blend).
 
 Blender's handlers drive it: after every depsgraph update and frame change the
-pose key of each Auto object -- the evaluated world matrices of the object and
-of its handle Empties, so keyframes, drivers, constraints and parents all count
--- is compared with the one last written. Nothing is solved when it did not
-change (our own writes trigger depsgraph updates too; they find the same key).
+pose key of each Auto object -- the frame, and the evaluated world matrices of
+the object and of its handle Empties, so keyframes, drivers, constraints and
+parents all count -- is compared with the one last written. Nothing is solved
+when it did not change (our own writes trigger depsgraph updates too; they find
+the same key).
 
 A new key is solved to the object's tolerance, warm-started from the cached
 solution whose handles were nearest, and the result is cached: playing a range
 solves each frame once, scrubbing back to a frame writes its cached pose, and
 a frame reached by another path starts from a neighbouring solution, so it
-settles in the same pose within the tolerance (the worst difference is measured
-in the README). In the viewport the solves run on a native worker thread
-(SolveWorker) and a timer shows its newest pose until the pose has settled,
-then stops (no CPU while idle): Blender's own input never waits for a solve.
-In --background and while rendering every pose is solved to the end, here.
+settles in the same pose within the tolerance (the documentation gives the
+worst difference measured). In the viewport the solves run on a native worker
+thread (SolveWorker) and a timer shows its newest pose until the pose has
+settled, then stops (no CPU while idle): Blender's own input never waits for a
+solve. In --background and while rendering every pose is solved to the end,
+here.
 
 An error (a deleted Empty, a changed vertex count, Edit Mode) turns Auto off for
 that object, puts its rest shape back and leaves the reason in

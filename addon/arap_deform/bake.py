@@ -12,9 +12,10 @@ Each frame: scene.frame_set(f), read the evaluated world matrices of the
 object and of the handle empties (keyframes, constraints and drivers all
 count), solve warm-started from the previous frame until the energy stops
 dropping (the object's tolerance, as Auto mode), keep the float32
-result. Nothing in the scene changes before every frame is solved (a .pc2 is
-streamed to a temporary file renamed at the end), so a cancelled bake changes
-nothing.
+result. Nothing is written into the scene before every frame is solved (a .pc2
+is streamed to a temporary file renamed at the end; the interactive bake's
+preview on the mesh is put back bit for bit first), so a cancelled bake
+changes nothing.
 
 Rest shape: the one Deform uses (the Basis key, or the "arap_rest" attribute,
 or the mesh), ignoring a Basis key the bake itself created. It is never

@@ -5,8 +5,7 @@ Interactive runs are modal (see InteractiveBake): the frames are solved on a
 worker thread, the newest one is shown in the viewport as it comes, with a
 progress bar in the status bar and the frame in the viewport's corner; Esc
 cancels and nothing is changed. In --background (no event loop) and from the
-redo panel the bake runs synchronously in execute(),
-so scripts can call
+redo panel the bake runs synchronously in execute(), so scripts can call
 bpy.ops.object.arap_bake(frame_start=1, frame_end=100, output='PC2', filepath="//pose.pc2").
 """
 

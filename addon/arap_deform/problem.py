@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """From an object's ARAP settings to a configured solver: what is read from
-Blender for one bind (Problem), the one mapping of the settings to the
-solver's options (solver_options, used by Deform, Live, the bake and Auto
-mode), and the warnings a solve reports.
+Blender for one bind and the targets of the handles' pose (Problem), the one
+mapping of the settings to the solver's options (solver_options), both used by
+Deform, Live, the bake and Auto mode, and the warnings a solve reports.
 """
 
 import functools
