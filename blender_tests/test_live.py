@@ -65,7 +65,7 @@ class Live(unittest.TestCase):
         self.assertEqual(live_ops.live_status_lines(), [])
 
     def test_apply_and_cancel_buttons_leave_the_request_with_the_operators(self):
-        # The panel's buttons call operators; the request waits in operators.py for the Live
+        # The panel's buttons call operators; the request waits in live_ops.py for the Live
         # modal operator (the session itself knows nothing of the UI).
         live_ops = U.addon("live_ops")
         s = api.start_session(self.obj, bpy.context.scene)

@@ -78,7 +78,7 @@ class LiveOnTheWorker(unittest.TestCase):
             time.sleep(0.01)
         self.assertGreater(s.worker.progress[0], first + 2)
         with self.assertRaises(native_loader.native().ArapError) as cm:
-            s.solver.solve(s.problem.targets)
+            s.solver.solve(s.targets)
         self.assertEqual(cm.exception.code, "solver busy")
         s.cancel()
         self.assertFalse(s.solver.busy)

@@ -21,32 +21,6 @@ class NativeBridge(unittest.TestCase):
         self.assertEqual(tuple(mod.PYTHON_VERSION), tuple(sys.version_info[:2]))
         self.assertTrue(mod.PYTHON_ABI.startswith(sys.implementation.cache_tag), mod.PYTHON_ABI)
 
-    def test_settings_agree_with_the_core_options(self):
-        # The core defines each option's default and limits (arap::option_specs(), OPTIONS); the
-        # object's settings start at those defaults and never allow a value the core refuses.
-        problem, properties = U.addon("problem", "properties")
-        options = native_loader.native().OPTIONS
-        props = properties.ARAP_PG_settings.__annotations__
-
-        def keywords(name):
-            return props[name].keywords
-
-        for setting, option in (("iterations", "max_iterations"), ("live_iterations", "max_iterations"),
-                                ("tolerance", "tolerance"), ("acceleration", "anderson_window"),
-                                ("threads", "threads")):
-            kw, spec = keywords(setting), options[option]
-            self.assertGreaterEqual(kw["min"], spec["min"], setting)
-            self.assertLessEqual(kw["max"], spec["max"], setting)
-            if setting != "live_iterations":   # Live's cap per update is its own setting
-                self.assertEqual(kw["default"], spec["default"], setting)
-        for setting, option, names in (("method", "method", problem.METHOD_NAMES),
-                                       ("weights", "weights", problem.WEIGHT_NAMES),
-                                       ("init", "init", problem.INIT_NAMES)):
-            kw = keywords(setting)
-            self.assertEqual(names[kw["default"]], options[option]["default"], setting)
-            self.assertEqual(sorted(names), sorted(item[0] for item in kw["items"]), setting)
-            self.assertLessEqual(set(names.values()), set(options[option]["choices"]), setting)
-
     def test_version_mismatch_says_what_to_rebuild(self):
         mod = native_loader.native()
         saved = mod.__version__

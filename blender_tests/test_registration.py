@@ -70,10 +70,12 @@ class Registration(unittest.TestCase):
         self.assertEqual(U.extension_policy_warnings(), [])
 
     def test_operators_documented_and_in_menus(self):
-        operators = U.addon("operators")
-        for cls in operators.classes:
+        operators = [cls for mod in U.addon("setup_ops", "deform_ops", "live_ops", "bake_ops") for cls in mod.classes
+                     if issubclass(cls, bpy.types.Operator)]
+        self.assertEqual(sorted(cls.bl_idname for cls in operators),
+                         sorted("object.arap_" + op for op in OPS + ("bake", "bake_clear")))
+        for cls in operators:
             self.assertTrue(cls.__doc__ and cls.__doc__.strip(), cls.__name__)
-            self.assertTrue(cls.bl_idname.startswith("object.arap_"), cls.bl_idname)
         # F3 (menu search) finds operators that sit in a menu.
         self.assertIn("_menu_entry", [f.__name__ for f in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()])
 

@@ -1,9 +1,10 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """ARAP Deform: pose a mesh as-rigidly-as-possible with handle empties.
 
-This file only registers. See api.py for scripting, engine.py (Deform),
-live.py (Live), bake.py, auto.py, native_loader.py for the native bridge,
-operators.py / deform_ops.py / live_ops.py / ui.py / properties.py /
+This file only registers. See api.py for scripting; engine.py (Deform),
+live.py (Live), bake.py and auto.py for the jobs, problem.py for what they
+read from Blender, native_loader.py for the native bridge; properties.py,
+setup_ops.py, deform_ops.py, live_ops.py, bake_ops.py, ui.py and
 status_overlay.py for the Blender side.
 """
 
@@ -20,18 +21,18 @@ bl_info = {
 if "bpy" in locals():
     # Script reload (F3 > Reload Scripts): reload submodules in dependency order.
     import importlib
-    for _name in ("native_loader", "errors", "temp_files", "meshio", "constraints", "problem", "solver_cache",
-                  "sessions", "status_overlay", "engine", "live", "anim_compat", "api", "bake", "auto", "properties",
-                  "operators", "deform_ops", "live_ops", "ui", "bake_ops"):
+    for _name in ("native_loader", "errors", "temp_files", "properties", "meshio", "constraints", "problem",
+                  "solver_cache", "sessions", "status_overlay", "engine", "live", "anim_compat", "api", "bake", "auto",
+                  "setup_ops", "deform_ops", "live_ops", "ui", "bake_ops"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
 import bpy  # noqa: E402,F401 - its presence in locals() marks a reload
 
-from . import properties, operators, deform_ops, live_ops, ui, bake_ops, auto, api, status_overlay  # noqa: E402
+from . import properties, setup_ops, deform_ops, live_ops, ui, bake_ops, auto, api, status_overlay  # noqa: E402
 
 # Order matters: bake_ops' panel is a child of ui's ARAP_PT_main; auto adds Blender handlers.
-_modules = (properties, operators, deform_ops, live_ops, ui, bake_ops, auto, status_overlay)
+_modules = (properties, setup_ops, deform_ops, live_ops, ui, bake_ops, auto, status_overlay)
 
 
 def register():

@@ -3,20 +3,22 @@
 like a modifier, with no session to start (Object.arap.auto, saved in the .blend).
 
 Blender's handlers drive it: after every depsgraph update and frame change the
-pose key of each Auto object -- the evaluated world matrices of the object and
-of its handle Empties, so keyframes, drivers, constraints and parents all count
--- is compared with the one last written. Nothing is solved when it did not
-change (our own writes trigger depsgraph updates too; they find the same key).
+pose key of each Auto object -- the frame, and the evaluated world matrices of
+the object and of its handle Empties, so keyframes, drivers, constraints and
+parents all count -- is compared with the one last written. Nothing is solved
+when it did not change (our own writes trigger depsgraph updates too; they find
+the same key).
 
 A new key is solved to the object's tolerance, warm-started from the cached
 solution whose handles were nearest, and the result is cached: playing a range
 solves each frame once, scrubbing back to a frame writes its cached pose, and
 a frame reached by another path starts from a neighbouring solution, so it
-settles in the same pose within the tolerance (the worst difference is measured
-in the README). In the viewport the solves run on a native worker thread
-(SolveWorker) and a timer shows its newest pose until the pose has settled,
-then stops (no CPU while idle): Blender's own input never waits for a solve.
-In --background and while rendering every pose is solved to the end, here.
+settles in the same pose within the tolerance (the documentation gives the
+worst difference measured). In the viewport the solves run on a native worker
+thread (SolveWorker) and a timer shows its newest pose until the pose has
+settled, then stops (no CPU while idle): Blender's own input never waits for a
+solve. In --background and while rendering every pose is solved to the end,
+here.
 
 An error (a deleted Empty, a changed vertex count, Edit Mode) turns Auto off for
 that object, puts its rest shape back and leaves the reason in
@@ -30,7 +32,7 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from . import bake, constraints, errors, meshio, problem, sessions, status_overlay
+from . import bake, errors, meshio, problem, sessions, status_overlay
 from .errors import SetupError
 from .native_loader import native
 
@@ -70,21 +72,14 @@ class AutoPoser:
         self.settled_at = 0.0        # time.monotonic() when it last settled
         self.worker = None           # the SolveWorker of the viewport's solves while one runs
 
-    def pose(self, obj, depsgraph):
-        """(key, object-local handle transforms) of the evaluated scene; the
-        key is the frame and the world matrices of the object and the Empties."""
-        obj_matrix, mats = self.problem.evaluated_matrices(obj, depsgraph)
-        transforms = constraints.handle_transforms(self.problem.setup, obj_matrix, mats)
-        key = (depsgraph.scene.frame_current,
-               np.concatenate([obj_matrix.ravel()] + [m.ravel() for m in mats]).tobytes())
-        return key, transforms
-
     def update(self, obj, depsgraph, on_worker=False):
         """Bring the mesh to the current pose. Returns True when it is settled
         (False: iterations remain, call again). on_worker: solve on the
         worker's thread and show its newest pose (the viewport); else here,
         to the end (--background, renders)."""
-        key, transforms = self.pose(obj, depsgraph)
+        # The pose key: the frame and the evaluated world matrices of the object and the Empties.
+        pose = self.problem.pose(obj, depsgraph=depsgraph)
+        key = (depsgraph.scene.frame_current, pose.key)
         if key == self.written and self.pending is None:
             return True
         hit = self.cache.get(key)
@@ -95,20 +90,16 @@ class AutoPoser:
             self._settled(True)
             return True
         if on_worker:
-            return self._solve_on_worker(key, transforms)
+            return self._solve_on_worker(key, pose)
         self.stop_worker()
-        return self._solve_here(key, transforms)
+        return self._solve_here(key, pose)
 
-    def _targets(self, transforms):
-        return constraints.fill_targets(self.problem.setup, self.problem.rest_constrained, transforms,
-                                        self.problem.targets)
-
-    def _solve_here(self, key, transforms):
+    def _solve_here(self, key, pose):
         global solve_count
         if self.pending != key:
-            self._warm_start(key, transforms)
+            self._warm_start(key, pose.transforms)
             self.pending, self.iterations = key, 0
-        targets = self._targets(transforms)
+        targets = self.problem.targets(pose)
         self.solver.time_budget_ms = 0.0
         self.solver.max_iterations = max(1, self.max_iterations - self.iterations)
         stats = self.solver.solve(targets, out=self.buffer)
@@ -116,24 +107,25 @@ class AutoPoser:
         self.iterations += stats.iterations
         self.pending = None
         self._write(self.buffer, key)
-        self._remember(key, self.buffer.copy(), transforms)
+        self._remember(key, self.buffer.copy(), pose.transforms)
         self._settled(True)
         return True
 
-    def _solve_on_worker(self, key, transforms):
+    def _solve_on_worker(self, key, pose):
         """New targets go to the worker (which goes on from its current state); its newest pose is
         shown, and cached once it has settled."""
         global solve_count
         if self.pending != key:
             if self.worker is None:
-                self._warm_start(key, transforms)   # the solver is still this thread's: pick the start
+                self._warm_start(key, pose.transforms)   # the solver is still this thread's: pick the start
                 self.solver.time_budget_ms = FRAME_BUDGET_MS
                 self.solver.max_iterations = self.max_iterations
                 self.worker = native().SolveWorker(self.solver, max_iterations=self.max_iterations)
-            self.state_key, self.current = key, [t.copy() for t in transforms]
-            self.worker.post(self._targets(transforms))
+            self.state_key, self.current = key, [t.copy() for t in pose.transforms]
+            self.worker.post(self.problem.targets(pose))
             solve_count += 1
             self.pending, self.iterations = key, 0
+            self._settled(False)   # a new pose, settling (the worker may have settled it by the take below)
         result = self.worker.take(self.buffer)
         if result is None:
             self._settled(False)
@@ -144,7 +136,7 @@ class AutoPoser:
         self._write(self.buffer, key if settled else None)
         if settled:
             self.pending = None
-            self._remember(key, self.buffer.copy(), transforms)
+            self._remember(key, self.buffer.copy(), pose.transforms)
             self.stop_worker()
         self._settled(settled)
         return settled

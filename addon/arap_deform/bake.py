@@ -12,9 +12,10 @@ Each frame: scene.frame_set(f), read the evaluated world matrices of the
 object and of the handle empties (keyframes, constraints and drivers all
 count), solve warm-started from the previous frame until the energy stops
 dropping (the object's tolerance, as Auto mode), keep the float32
-result. Nothing in the scene changes before every frame is solved (a .pc2 is
-streamed to a temporary file renamed at the end), so a cancelled bake changes
-nothing.
+result. Nothing is written into the scene before every frame is solved (a .pc2
+is streamed to a temporary file renamed at the end; the interactive bake's
+preview on the mesh is put back bit for bit first), so a cancelled bake
+changes nothing.
 
 Rest shape: the one Deform uses (the Basis key, or the "arap_rest" attribute,
 or the mesh), ignoring a Basis key the bake itself created. It is never
@@ -43,6 +44,7 @@ import numpy as np
 
 from . import anim_compat, constraints, engine, meshio, problem, sessions, temp_files
 from .errors import SetupError
+from .native_loader import native
 
 KEY_PREFIX = "ARAP_f"
 MODIFIER_NAME = "ARAP Bake"
@@ -55,7 +57,6 @@ PROP_MUTED = "arap_bake_muted_live"     # the "ARAP" key was muted by the bake
 # tolerance, each frame starting from the previous one, so baked frames and the frames
 # Auto mode plays are the same poses.
 DEFAULT_ITERATIONS = 2000    # per frame, an upper bound: frames stop on the tolerance
-DEFAULT_ANDERSON = 5         # Anderson window, when the object's method is Anderson
 
 __all__ = ("BakeResult", "Baker", "bake_shape_keys", "bake_pc2", "clear_bake", "PC2Writer", "read_pc2",
            "key_name", "is_baked")
@@ -145,9 +146,10 @@ class Baker:
         self.problem = problem.Problem(obj, self.scene, rest32=bake_rest(obj))
         self.setup = self.problem.setup
         self.rest64 = self.problem.rest64
+        if anderson is None:   # the option's default window, not the object's Acceleration
+            anderson = native().OPTIONS["anderson_window"]["default"]
         self.solver = problem.configured_solver(self.problem, obj.arap, iterations=iterations or DEFAULT_ITERATIONS,
-                                                tolerance=tolerance, warm=True,
-                                                anderson=DEFAULT_ANDERSON if anderson is None else anderson)
+                                                tolerance=tolerance, warm=True, anderson=anderson)
         self.free = np.ones(len(self.rest64), bool)
         self.free[self.setup.constrained] = False
         self.pc2_path = pc2_path
@@ -175,9 +177,9 @@ class Baker:
         return self.frames[min(self.index, len(self.frames) - 1)]
 
     def _targets(self):
-        obj_matrix, mats = self.problem.evaluated_matrices(self.obj, bpy.context.evaluated_depsgraph_get(), self.scene)
-        transforms = constraints.handle_transforms(self.setup, obj_matrix, mats)
-        return constraints.fill_targets(self.setup, self.problem.rest_constrained, transforms, self.problem.targets)
+        """The targets of the frame just set: the handles as evaluated there."""
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        return self.problem.targets(self.problem.pose(self.obj, self.scene, depsgraph))
 
     def _gradient(self, positions):
         g = self.solver.energy_gradient(np.ascontiguousarray(positions, np.float64))
@@ -287,8 +289,9 @@ def bake_shape_keys(obj, start, end, scene=None, iterations=None, tolerance=None
     and 0 at the frames next to it. iterations: at most this many per frame
     (default 2000); tolerance: the solver's tolerance for a frame (default:
     the object's, as Auto mode); the object's method solves (anderson: the
-    window when that is Anderson). Replaces a previous
-    bake; the Basis and base mesh are not modified. Returns a BakeResult
+    window when that is Anderson; default: the option's default window, not
+    the object's Acceleration). Replaces a previous bake; the Basis and base
+    mesh are not modified. Returns a BakeResult
     (energies, iterations, ms per frame). Raises SetupError on a bad set-up,
     with the object unchanged.
     """

@@ -5,8 +5,7 @@ Interactive runs are modal (see InteractiveBake): the frames are solved on a
 worker thread, the newest one is shown in the viewport as it comes, with a
 progress bar in the status bar and the frame in the viewport's corner; Esc
 cancels and nothing is changed. In --background (no event loop) and from the
-redo panel the bake runs synchronously in execute(),
-so scripts can call
+redo panel the bake runs synchronously in execute(), so scripts can call
 bpy.ops.object.arap_bake(frame_start=1, frame_end=100, output='PC2', filepath="//pose.pc2").
 """
 
@@ -20,6 +19,7 @@ from .native_loader import native
 
 TICK_S = 1.0 / 60.0     # the modal's timer
 TICK_SLICE_MS = 8.0     # how long a tick waits for frames the worker solves (Blender's thread is held meanwhile)
+REDRAWN = ('VIEW_3D', 'STATUSBAR')   # where a bake shows itself: the preview and lines, the progress bar
 
 OUTPUT_ITEMS = (
     ('SHAPE_KEYS', "Shape Keys", "One shape key per frame (ARAP_f0001...), keyed on at its frame"),
@@ -169,13 +169,6 @@ class ARAP_OT_bake(bpy.types.Operator):
         self.report({'INFO'}, "Baked %d frame(s) in %s (%.1f ms/frame, %.1f iterations/frame)"
                     % (n, total, sum(result.ms) / n, sum(result.iterations) / n))
 
-    def _fail(self, exc):
-        message = errors.user_error(exc) or (exc.strerror if isinstance(exc, OSError) else None)
-        if message is None:
-            raise exc
-        self.report({'ERROR'}, message)
-        return {'CANCELLED'}
-
     def execute(self, context):
         error = self._check(context)
         if error:
@@ -189,7 +182,7 @@ class ARAP_OT_bake(bpy.types.Operator):
         except Exception as exc:  # noqa: BLE001 - user errors are reported, bugs re-raised
             if baker is not None:
                 baker.cancel()
-            return self._fail(exc)
+            return errors.report_error(self, exc)
         return {'FINISHED'}
 
     def invoke(self, context, event):
@@ -207,7 +200,7 @@ class ARAP_OT_bake(bpy.types.Operator):
         try:
             self._run = InteractiveBake(self._start(context))
         except Exception as exc:  # noqa: BLE001
-            return self._fail(exc)
+            return errors.report_error(self, exc)
         wm = context.window_manager
         self._timer = wm.event_timer_add(TICK_S, window=context.window)
         wm.modal_handler_add(self)
@@ -219,10 +212,7 @@ class ARAP_OT_bake(bpy.types.Operator):
         context.window_manager.event_timer_remove(self._timer)
         bpy.types.STATUSBAR_HT_header.remove(draw_status_bar)
         status_overlay.remove(bake_status_lines)
-        status_overlay.redraw(context)
-        for area in context.screen.areas if context.screen is not None else ():
-            if area.type == 'STATUSBAR':
-                area.tag_redraw()
+        status_overlay.redraw(context, REDRAWN)
 
     def modal(self, context, event):
         run = self._run
@@ -241,10 +231,8 @@ class ARAP_OT_bake(bpy.types.Operator):
         except Exception as exc:  # noqa: BLE001
             self._end(context)
             run.cancel()
-            return self._fail(exc)
-        for area in context.screen.areas if context.screen is not None else ():
-            if area.type in {'VIEW_3D', 'STATUSBAR'}:
-                area.tag_redraw()
+            return errors.report_error(self, exc)
+        status_overlay.redraw(context, REDRAWN)
         return {'RUNNING_MODAL'}
 
 

@@ -1,15 +1,15 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The Deform operator: one solve from the rest shape (engine.DeformJob).
+"""Deform and the shape it starts from: the Deform operator (one solve from the
+rest shape, engine.DeformJob), Reset to Rest and Set Rest Pose.
 
-From a script or the redo panel it solves in execute(). From the panel, a
-key or F3 it is modal: the solve runs on the worker's thread, the viewport
+Deform, from a script or the redo panel, solves in execute(). From the panel,
+a key or F3 it is modal: the solve runs on the worker's thread, the viewport
 shows its progress, the view can still be orbited and zoomed, and Esc stops
 it with the mesh untouched (the result is written only once the solve is
 done, as one undo step).
 """
 
 import bpy
-from bpy.props import EnumProperty, FloatProperty, IntProperty
 
 from . import engine, errors, properties, sessions, status_overlay
 
@@ -25,14 +25,17 @@ class ARAP_OT_deform(bpy.types.Operator):
     bl_label = "ARAP Deform"
     bl_options = {'REGISTER', 'UNDO'}
 
-    # The redo panel (F9) shows the values the solve used: _job() fills
-    # any not given from the object's settings (properties.py has the tooltips).
-    iterations: IntProperty(name="Iterations", default=100, min=1, max=1000,
-                            description="Most solver rounds; it stops earlier once the pose has settled")
-    tolerance: FloatProperty(name="Tolerance", default=1e-6, min=0.0, max=1.0, precision=7, step=0.0001,
-                             description="Stop when a round improves the pose by less than this fraction")
-    init: EnumProperty(name="Start From", items=properties.INIT_ITEMS, default='NAIVE',
-                       description="The shape the solver starts from")
+    # The redo panel (F9) shows the values the solve used: _start_job() fills any not given from the
+    # object's settings; defaults and limits are the settings' (properties.py, from the option table).
+    iterations: properties.option_int(
+        "max_iterations", name="Iterations", **properties.ITERATIONS_RANGE,
+        description="Most solver rounds; it stops earlier once the pose has settled")
+    tolerance: properties.option_float(
+        "tolerance", name="Tolerance", **properties.TOLERANCE_STYLE,
+        description="Stop when a round improves the pose by less than this fraction")
+    init: properties.option_enum(
+        "init", properties.INIT_ITEMS, properties.INIT_NAMES, name="Start From",
+        description="The shape the solver starts from")
 
     running = None   # the modal Deform's job while it runs (what the viewport's lines show)
 
@@ -138,5 +141,33 @@ def deform_status_lines():
             "Esc: stop (the mesh stays as it was)"]
 
 
-classes = (ARAP_OT_deform,)
+class _ApplyToActiveObject:
+    """Mixin: execute() runs `action` (an engine function) on the panel's mesh and reports its errors."""
+    action = None
+
+    def execute(self, context):
+        try:
+            type(self).action(sessions.target_mesh(context))
+        except Exception as exc:  # noqa: BLE001 - report_error re-raises what is not a user error
+            return errors.report_error(self, exc)
+        return {'FINISHED'}
+
+
+class ARAP_OT_reset(_ApplyToActiveObject, bpy.types.Operator):
+    """Put the mesh back to its rest shape and take the empties' current poses as their bind poses"""
+    bl_idname = "object.arap_reset"
+    bl_label = "Reset to Rest"
+    bl_options = {'REGISTER', 'UNDO'}
+    action = staticmethod(engine.reset)
+
+
+class ARAP_OT_set_rest_pose(_ApplyToActiveObject, bpy.types.Operator):
+    """Take the current shape as the rest shape and the empties' current poses as bind poses"""
+    bl_idname = "object.arap_set_rest_pose"
+    bl_label = "Set Rest Pose"
+    bl_options = {'REGISTER', 'UNDO'}
+    action = staticmethod(engine.set_rest_pose)
+
+
+classes = (ARAP_OT_deform, ARAP_OT_reset, ARAP_OT_set_rest_pose)
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -59,7 +59,8 @@ class DeformJob:
         self.obj, self.scene = obj, scene
         sync_matrices()
         self.problem = Problem(obj, scene)
-        self.targets = self.problem.compute_targets(obj, scene)
+        self.pose = self.problem.pose(obj, scene)
+        self.targets = self.problem.targets(self.pose)
         self.solver, self.bind_ms, self.cached = solver_cache.bound_solver(obj, self.problem)
         self.solver.configure(**solver_options(obj.arap, iterations=iterations, tolerance=tolerance, init=init))
         self.max_iterations = self.solver.max_iterations
@@ -107,7 +108,7 @@ class DeformJob:
         out.write(self.positions)
         report = self.solver.mesh_report()
         warnings = list(problem.setup.warnings) + bind_warnings(report, problem, obj.arap)
-        for w in (collapsed_handles_warning(problem, self.scene),
+        for w in (collapsed_handles_warning(problem, self.pose),
                   unconverged_warning(stats, self.max_iterations, self.solver.tolerance, self.iterations_from)):
             if w:
                 warnings.append(w)

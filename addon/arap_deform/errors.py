@@ -27,8 +27,9 @@ def user_error(exc):
 
 
 def report_error(op, exc):
-    """Report `exc` on operator `op` when a user can act on it and return {'CANCELLED'}; re-raise bugs."""
-    msg = user_error(exc)
+    """Report `exc` on operator `op` when a user can act on it (user_error(), or a file that could not be
+    written: the bake's .pc2) and return {'CANCELLED'}; re-raise bugs."""
+    msg = user_error(exc) or (exc.strerror if isinstance(exc, OSError) else None)
     if msg is None:
         raise exc
     op.report({'ERROR'}, msg)

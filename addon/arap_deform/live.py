@@ -93,7 +93,8 @@ class LiveSession:
         self.last = None
         self.active = True
         self.converged = False
-        self._pose = None
+        self._pose_key = None    # HandlePose.key of the targets last solved for
+        self.targets = None      # those targets
         self.worker = None       # the SolveWorker update() hands the solves to (created by its first call)
         self._settle_iterations = s.iterations
         if write:
@@ -144,13 +145,14 @@ class LiveSession:
         self.stop_worker()
         self.check()
         t0 = time.perf_counter()
-        pose, obj_matrix, mats, still = self._read_pose()
+        pose = self._read_pose()
+        still = pose.key == self._pose_key
         if not force and self.converged and still:
             return None
         # While a handle moves, keep to the frame budget; once it stops, nobody waits for a
         # new frame of the handle, so the settling updates may take a few times longer.
         self.solver.time_budget_ms = self.frame_ms * (SETTLE_BUDGET_FACTOR if still else 1.0)
-        targets = self._targets(pose, obj_matrix, mats)
+        targets = self._targets(pose)
         t1 = time.perf_counter()
         stats = self.solver.solve(targets, out=self.buffer)
         t2 = time.perf_counter()
@@ -172,9 +174,9 @@ class LiveSession:
         t0 = time.perf_counter()
         if self.worker is None:
             self.worker = native().SolveWorker(self.solver, max_iterations=self._settle_iterations)
-        pose, obj_matrix, mats, still = self._read_pose()
-        if not still:
-            self.worker.post(self._targets(pose, obj_matrix, mats))
+        pose = self._read_pose()
+        if pose.key != self._pose_key:
+            self.worker.post(self._targets(pose))
             self.converged = False
         t1 = time.perf_counter()
         result = self.worker.take(self.buffer)
@@ -190,24 +192,21 @@ class LiveSession:
         return self.last
 
     def _read_pose(self):
-        """(pose, object matrix, Empty matrices, still): the world matrices now,
-        and whether they are the ones last solved for."""
+        """The handles' pose now (problem.HandlePose); SessionError 'EMPTY' when an Empty was deleted."""
         sync_matrices()  # scripts move empties without a depsgraph update; cheap when nothing changed
         try:
-            mats = self.problem.empty_matrices(self.scene)
+            self.problem.empties(self.scene)
         except SetupError as exc:
             raise SessionError(str(exc), 'EMPTY') from None
-        obj_matrix = constraints.matrix_to_numpy(self.obj.matrix_world)
-        pose = np.concatenate([obj_matrix.ravel()] + [m.ravel() for m in mats])
-        return pose, obj_matrix, mats, self._pose is not None and np.array_equal(pose, self._pose)
+        return self.problem.pose(self.obj, self.scene)
 
-    def _targets(self, pose, obj_matrix, mats):
-        """The constrained vertices' targets for these matrices (remembered as the pose solved for)."""
-        self._pose = pose
-        self.collapsed = constraints.collapsed_handles(self.problem.setup, mats)
-        transforms = constraints.handle_transforms(self.problem.setup, obj_matrix, mats, self.obj.name)
-        return constraints.fill_targets(self.problem.setup, self.problem.rest_constrained, transforms,
-                                        self.problem.targets)
+    def _targets(self, pose):
+        """The constrained vertices' targets for `pose`, remembered as the pose solved for (and
+        its handles scaled to almost nothing, which the operator warns about)."""
+        self._pose_key = pose.key
+        self.collapsed = self.problem.collapsed(pose)
+        self.targets = self.problem.targets(pose)
+        return self.targets
 
     def stop_worker(self):
         """Give the solver back to the caller's thread: the worker's solve in progress ends after its
@@ -256,7 +255,7 @@ class LiveSession:
         self.output.obj = obj
         for handle, empty in zip(self.problem.setup.handles, empties):
             handle.empty = empty
-        self._pose = None    # solve for the restored handles
+        self._pose_key = None    # solve for the restored handles
         self.converged = False
         self.check(full=True)
 

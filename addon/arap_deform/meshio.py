@@ -6,7 +6,7 @@ Rest shape (what ARAP keeps as rigid as possible):
 - result in a shape key: the basis (reference) key, never modified here;
 - result in the mesh: the "arap_rest" point attribute, captured from the
   current coordinates the first time the tool writes the mesh and again by
-  "Set Rest Pose" (api.bind); "Reset to Rest" copies it back.
+  "Set Rest Pose" (engine.set_rest_pose()); "Reset to Rest" copies it back.
 """
 
 import time
@@ -37,9 +37,9 @@ def triangles(mesh):
 class Topology:
     """The mesh's connectivity when created. counts_match() compares the
     element counts (free); unchanged() also compares each face corner's vertex
-    index. Blender 4.x keeps those in the ".corner_vert" attribute, read in
-    well under a millisecond at 156k vertices; Blender 3.4 has only the loops,
-    whose foreach_get costs about 50 ms there (`cheap` says which)."""
+    index. Blender 4.x keeps those in the ".corner_vert" attribute, one array
+    read; Blender 3.4 has only the loops, whose foreach_get is many times
+    slower on large meshes. `cheap`: this mesh's read took at most CHEAP_MS."""
 
     CHEAP_MS = 2.0   # a full comparison this fast can run while a handle moves
 
@@ -198,7 +198,7 @@ def _copy_channel(value):
 
 
 class Snapshot:
-    """Exact copy of what Deform/Live may change, to restore bit for bit."""
+    """Exact copy of what Live and the bake's preview change, to restore bit for bit."""
 
     def __init__(self, obj):
         mesh = obj.data

@@ -1,9 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """From an object's ARAP settings to a configured solver: what is read from
-Blender for one bind (Problem), the one mapping of the settings to the
-solver's options (solver_options, used by Deform, Live, the bake and Auto
-mode), and the warnings a solve reports.
+Blender for one bind and the targets of the handles' pose (Problem), the one
+mapping of the settings to the solver's options (solver_options), both used by
+Deform, Live, the bake and Auto mode, and the warnings a solve reports.
 """
+
+import functools
 
 import bpy
 import numpy as np
@@ -11,12 +13,8 @@ import numpy as np
 from . import constraints, meshio
 from .errors import SetupError
 from .native_loader import native
-
-# Blender enum items -> the native module's option values (properties.py defines the items).
-WEIGHT_NAMES = {'COTAN': "cotan", 'COTAN_CLAMPED': "cotan-clamped", 'UNIFORM': "uniform"}
-INIT_NAMES = {'LAPLACIAN': "laplacian", 'DIFFERENTIAL': "differential", 'NAIVE': "naive"}
-METHOD_NAMES = {'QUASI_NEWTON': "quasi-newton", 'LOCAL_GLOBAL': "local-global", 'ANDERSON': "anderson"}
-VOLUME_NAMES = {'NONE': "none", 'GLOBAL': "global", 'INFILL': "infill"}
+# Blender enum items -> the native module's option values (declared with the items).
+from .properties import INIT_NAMES, METHOD_NAMES, VOLUME_NAMES, WEIGHT_NAMES  # noqa: F401
 
 
 def volume_options(settings):
@@ -47,8 +45,30 @@ def topology_counts(mesh):
     return (len(mesh.vertices), len(mesh.edges), len(mesh.loops), len(mesh.polygons))
 
 
+class HandlePose:
+    """Where the handles are: the world matrices of the posed object and of its handle Empties, read
+    together (Problem.pose()), and each handle's object-local transform since its bind pose."""
+
+    def __init__(self, setup, obj_name, obj_matrix, empty_matrices):
+        self._setup, self._obj_name = setup, obj_name
+        self.obj_matrix = obj_matrix            # float64 (4, 4)
+        self.empty_matrices = empty_matrices    # [float64 (4, 4)], one per handle
+        # The matrices' bytes: poses with the same key have the same targets (Live: nothing moved;
+        # Auto mode: a pose solved before).
+        self.key = np.concatenate([obj_matrix.ravel()] + [m.ravel() for m in empty_matrices]).tobytes()
+
+    @functools.cached_property
+    def transforms(self):
+        """[M_obj^-1 @ M_now @ M_bind^-1 @ M_obj], one per handle (worked out when first asked for: Live
+        reads a pose every tick and needs them only when it moved); SetupError when the object has zero
+        scale."""
+        return constraints.handle_transforms(self._setup, self.obj_matrix, self.empty_matrices, self._obj_name)
+
+
 class Problem:
-    """Everything read from Blender for one bind: rest, triangles, constraints.
+    """Everything read from Blender for one bind: rest, triangles, constraints;
+    and the targets of the constrained vertices for the handles' pose (pose(),
+    targets()), the one way Deform, Live, the bake and Auto mode get them.
     `rest32`: another flat float32 rest shape than the one Deform uses (the bake's)."""
 
     def __init__(self, obj, scene, rest32=None):
@@ -61,32 +81,40 @@ class Problem:
         if len(self.tris) == 0:
             raise SetupError("'%s' has no faces: ARAP needs a surface" % obj.name)
         self.rest_constrained = self.rest64[self.setup.constrained]
-        self.targets = np.empty_like(self.rest_constrained)
+        self._targets = np.empty_like(self.rest_constrained)
         self.weights = WEIGHT_NAMES[s.weights]
         self.stiffness = constraints.stiffness_of(obj)
         self.volume = volume_options(s)
         self.threads = s.threads  # large meshes order and factor in two halves side by side
 
-    def _empties(self, scene):
+    def empties(self, scene=None):
+        """The handles' Empties; SetupError when one was deleted (or, given `scene`, is not in it)."""
         for h in self.setup.handles:
             if not constraints.empty_is_alive(h.empty, scene):
                 raise SetupError("The Empty of handle '%s' was deleted" % h.group)
-            yield h.empty
+        return [h.empty for h in self.setup.handles]
 
-    def empty_matrices(self, scene):
-        """Each handle Empty's world matrix (float64 4x4), as the viewport last updated it."""
-        return [constraints.matrix_to_numpy(e.matrix_world) for e in self._empties(scene)]
+    def pose(self, obj, scene=None, depsgraph=None):
+        """The HandlePose of `obj` now: the world matrices as the viewport last updated them, or, with
+        `depsgraph`, as evaluated there (keyframes, drivers, constraints and parents of the frame it shows
+        count). Raises SetupError when a handle's Empty was deleted (or, given `scene`, is not in it)."""
+        empties = self.empties(scene)
+        if depsgraph is not None:
+            obj = obj.evaluated_get(depsgraph)
+            empties = [e.evaluated_get(depsgraph) for e in empties]
+        obj_matrix = constraints.matrix_to_numpy(obj.matrix_world)
+        mats = [constraints.matrix_to_numpy(e.matrix_world) for e in empties]
+        return HandlePose(self.setup, obj.name, obj_matrix, mats)
 
-    def evaluated_matrices(self, obj, depsgraph, scene=None):
-        """(the object's, [each handle Empty's]) evaluated world matrices: keyframes,
-        drivers, constraints and parents of the frame `depsgraph` shows count."""
-        mats = [constraints.matrix_to_numpy(e.evaluated_get(depsgraph).matrix_world) for e in self._empties(scene)]
-        return constraints.matrix_to_numpy(obj.evaluated_get(depsgraph).matrix_world), mats
+    def targets(self, pose):
+        """The constrained vertices' targets for `pose` (float64 (k, 3): fixed vertices at rest, each
+        handle's block moved by its transform), in this Problem's buffer: the next call overwrites it.
+        SetupError when the object has zero scale."""
+        return constraints.fill_targets(self.setup, self.rest_constrained, pose.transforms, self._targets)
 
-    def compute_targets(self, obj, scene):
-        transforms = constraints.handle_transforms(
-            self.setup, constraints.matrix_to_numpy(obj.matrix_world), self.empty_matrices(scene), obj.name)
-        return constraints.fill_targets(self.setup, self.rest_constrained, transforms, self.targets)
+    def collapsed(self, pose):
+        """The groups of the handles whose Empty `pose` scales to almost nothing since its bind pose."""
+        return constraints.collapsed_handles(self.setup, pose.empty_matrices)
 
     def bind(self):
         """A new native solver bound to this problem (default options but those fixed at bind: the weights
@@ -177,10 +205,10 @@ def unconverged_warning(stats, max_iterations, tolerance, iterations_from='SETTI
             % (max_iterations, tolerance, RAISE_ITERATIONS[iterations_from]))
 
 
-def collapsed_handles_warning(problem, scene):
+def collapsed_handles_warning(problem, pose):
     """A warning naming handles whose Empty is scaled to (almost) nothing since
-    its bind pose: their vertices collapse to a point."""
-    names = constraints.collapsed_handles(problem.setup, problem.empty_matrices(scene))
+    its bind pose in `pose` (a HandlePose): their vertices collapse to a point."""
+    names = problem.collapsed(pose)
     if not names:
         return None
     return ("The Empty of handle%s %s is scaled to almost nothing: %s vertices collapse to a point"

@@ -12,38 +12,96 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
                        FloatVectorProperty, IntProperty, PointerProperty, StringProperty)
 from bpy.types import PropertyGroup
 
+from . import native_loader
+
 IDENTITY16 = (1.0, 0.0, 0.0, 0.0,
               0.0, 1.0, 0.0, 0.0,
               0.0, 0.0, 1.0, 0.0,
               0.0, 0.0, 0.0, 1.0)
 
-# Enum identifiers; problem.py maps them to the native module's names (WEIGHT_NAMES, METHOD_NAMES, INIT_NAMES).
-WEIGHT_ITEMS = (
-    ('COTAN_CLAMPED', "Cotangent (clamped)",
+# The solver's options take their defaults, limits and choices from the native
+# option table (arap::option_specs(), _arap_native.OPTIONS), read once when the
+# add-on is enabled; the add-on adds names, tooltips and the enum items. When the
+# module does not load in this Blender (built for another Python), the add-on
+# still registers: those settings then have Blender's plain defaults and no
+# limits, nothing can be solved, and NATIVE_ERROR (shown in the panel and by
+# every operator that solves) says what to rebuild.
+try:
+    OPTIONS = native_loader.native().OPTIONS
+    NATIVE_ERROR = None
+except native_loader.NativeModuleError as exc:
+    OPTIONS, NATIVE_ERROR = {}, str(exc)
+
+
+def _limits(option, own):
+    """The table's default, min and max of a numeric `option`, then the add-on's own keywords `own`
+    (a narrower range where the add-on needs one; test_settings.py checks each against the table)."""
+    spec = OPTIONS.get(option)
+    keywords = {} if spec is None else {"default": spec["default"], "min": spec["min"], "max": spec["max"]}
+    keywords.update(own)
+    return keywords
+
+
+def option_int(option, **keywords):
+    """An IntProperty for the integer `option` of the table (name, description and any narrowing given)."""
+    return IntProperty(**_limits(option, keywords))
+
+
+def option_float(option, **keywords):
+    """A FloatProperty for the real `option` of the table."""
+    return FloatProperty(**_limits(option, keywords))
+
+
+def _choices(*choices):
+    """Enum choices, each once: (identifier, native name, label, tooltip). Returns the EnumProperty items
+    and {identifier: native name} (what problem.py passes to the solver)."""
+    return tuple((c[0], c[2], c[3]) for c in choices), {c[0]: c[1] for c in choices}
+
+
+def option_enum(option, items, names, **keywords):
+    """An EnumProperty for the choice `option`: its default is the item named as the table's default."""
+    spec = OPTIONS.get(option)
+    if spec is not None:
+        keywords["default"] = next(i for i, n in names.items() if n == spec["default"])
+    return EnumProperty(items=items, **keywords)
+
+
+# Iterations and Tolerance as the object's settings and the Deform operator's redo panel both show them:
+# at least one round (the solve worker refuses none); dragging reaches 10 000, typing the table's maximum.
+ITERATIONS_RANGE = {"min": 1, "soft_max": 10000}
+TOLERANCE_STYLE = {"precision": 7, "step": 0.0001}
+
+WEIGHT_ITEMS, WEIGHT_NAMES = _choices(
+    ('COTAN_CLAMPED', "cotan-clamped", "Cotangent (clamped)",
      "Cotangent weights with negative cotangents set to zero: robust on obtuse triangles"),
-    ('COTAN', "Cotangent", "Cotangent weights (Sorkine & Alexa 2007); may be negative on obtuse triangles"),
-    ('UNIFORM', "Uniform", "Every edge weighs 1: ignores the triangle shapes"),
+    ('COTAN', "cotan", "Cotangent",
+     "Cotangent weights (Sorkine & Alexa 2007); may be negative on obtuse triangles"),
+    ('UNIFORM', "uniform", "Uniform", "Every edge weighs 1: ignores the triangle shapes"),
 )
-INIT_ITEMS = (
-    ('NAIVE', "Rest Shape", "Start from the rest shape with only the fixed and handle vertices moved. "
+# The start of a solve; the table's "warm" (the last solution) is Live's and Auto mode's own, not a setting.
+INIT_ITEMS, INIT_NAMES = _choices(
+    ('NAIVE', "naive", "Rest Shape", "Start from the rest shape with only the fixed and handle vertices moved. "
      "Usually ends in the least stretched pose"),
-    ('LAPLACIAN', "Smooth", "Start from a smooth blend of the handle motion over the mesh (Laplacian editing)"),
-    ('DIFFERENTIAL', "Smooth (uniform)", "Like Smooth, but every edge counts the same (Lipman et al. 2004): "
-     "a start that ignores the triangle shapes"),
+    ('LAPLACIAN', "laplacian", "Smooth",
+     "Start from a smooth blend of the handle motion over the mesh (Laplacian editing)"),
+    ('DIFFERENTIAL', "differential", "Smooth (uniform)", "Like Smooth, but every edge counts the same "
+     "(Lipman et al. 2004): a start that ignores the triangle shapes"),
 )
-METHOD_ITEMS = (
-    ('QUASI_NEWTON', "Quasi-Newton", "L-BFGS with the factored Laplacian and a line search (Liu et al. 2017): "
-     "the same minimum as local/global, on meshes of 10k+ vertices in a fifth of the time or less (README)"),
-    ('LOCAL_GLOBAL', "Local/Global", "The textbook alternation of Sorkine & Alexa 2007"),
-    ('ANDERSON', "Anderson", "Local/global with Anderson acceleration over the Acceleration window"),
+METHOD_ITEMS, METHOD_NAMES = _choices(
+    ('QUASI_NEWTON', "quasi-newton", "Quasi-Newton", "L-BFGS with the factored Laplacian and a line search "
+     "(Liu et al. 2017): the same minimum as local/global, on meshes of 10k+ vertices in a fifth of the time "
+     "or less (README)"),
+    ('LOCAL_GLOBAL', "local-global", "Local/Global", "The textbook alternation of Sorkine & Alexa 2007"),
+    ('ANDERSON', "anderson", "Anderson", "Local/global with Anderson acceleration over the Acceleration window"),
 )
-VOLUME_ITEMS = (
-    ('NONE', "Surface Only", "Surface ARAP: thick parts can fold flat and lose volume where they bend "
+VOLUME_ITEMS, VOLUME_NAMES = _choices(
+    ('NONE', "none", "Surface Only", "Surface ARAP: thick parts can fold flat and lose volume where they bend "
      "(the paper's method)"),
-    ('GLOBAL', "Global", "Keep the enclosed volume of every closed part exactly; open parts are left as they are. "
-     "About 1.4x the cost of a round, but the volume a bend squeezes out goes to the ends"),
-    ('INFILL', "Infill", "Fill the inside with a lattice posed with the surface, like a 3D print's infill: keeps "
-     "the volume and cross-sections where it bends, on any mesh (open ones too); 1.3x to 3.4x the cost of a round"),
+    ('GLOBAL', "global", "Global", "Keep the enclosed volume of every closed part exactly; open parts are left "
+     "as they are. About 1.4x the cost of a round, but the volume a bend squeezes out goes to the ends"),
+    ('INFILL', "infill", "Infill", "Fill the inside with a lattice posed with the surface, like a 3D print's "
+     "infill: keeps the volume and cross-sections where it bends, on any mesh (open ones too); 1.3x to 3.4x the "
+     "cost of a round"),
 )
 OUTPUT_ITEMS = (
     ('AUTO', "Auto", "A shape key named \"ARAP\" when the mesh has shape keys, otherwise the mesh itself"),
@@ -126,21 +184,23 @@ class ARAP_PG_settings(PropertyGroup):
     )
     handles: CollectionProperty(type=ARAP_PG_handle, name="Handles")
     active_handle: IntProperty(name="Active Handle", default=0, min=0)
-    method: EnumProperty(
+    method: option_enum(
+        "method", METHOD_ITEMS, METHOD_NAMES,
         name="Method", description="How the energy is minimised (all reach the same minimum)",
-        items=METHOD_ITEMS, default='QUASI_NEWTON',
     )
-    iterations: IntProperty(
+    iterations: option_int(
+        "max_iterations",
         name="Iterations",
         description="Most solver rounds a Deform may take, a safety cap: it stops once the pose has settled "
                     "(see Tolerance)",
-        default=1000, min=1, max=10000,
+        **ITERATIONS_RANGE,
     )
-    live_iterations: IntProperty(
+    live_iterations: option_int(
+        "max_iterations",
         name="Live Iterations",
         description="Most solver rounds per viewport update while Live runs; each update also stops at the "
                     "Live Frame Budget, and Live goes on while nothing moves until the pose has settled",
-        default=100, min=1, max=1000,
+        default=100, min=1, soft_max=1000,
     )
     live_frame_ms: FloatProperty(
         name="Live Frame Budget",
@@ -148,20 +208,21 @@ class ARAP_PG_settings(PropertyGroup):
                     "moves, and the pose settles over the next updates once it stops",
         default=16.0, min=1.0, max=1000.0,
     )
-    tolerance: FloatProperty(
+    tolerance: option_float(
+        "tolerance",
         name="Tolerance",
         description="How settled the pose must be to stop: the solver stops when a round improves it by "
                     "less than this fraction. Smaller is more exact and slower; 0 always runs every round",
-        default=1e-6, min=0.0, max=1.0, precision=7, step=0.0001,
+        **TOLERANCE_STYLE,
     )
-    weights: EnumProperty(
+    weights: option_enum(
+        "weights", WEIGHT_ITEMS, WEIGHT_NAMES,
         name="Edge Weights", description="How much each edge resists stretching. Cotangent (clamped) suits "
         "almost every mesh",
-        items=WEIGHT_ITEMS, default='COTAN_CLAMPED',
     )
-    init: EnumProperty(
+    init: option_enum(
+        "init", INIT_ITEMS, INIT_NAMES,
         name="Start From", description="The shape the solver starts from; the pose it settles in can differ",
-        items=INIT_ITEMS, default='NAIVE',
     )
     stiff_group: StringProperty(
         name="Stiff Group",
@@ -175,29 +236,31 @@ class ARAP_PG_settings(PropertyGroup):
                     "(it scales those vertices' share of the ARAP energy)",
         default=10.0, min=1.0, max=1000.0, soft_max=100.0,
     )
-    volume: EnumProperty(
+    volume: option_enum(
+        "volume", VOLUME_ITEMS, VOLUME_NAMES,
         name="Volume", description="What keeps thick parts from folding flat and losing volume where they bend "
         "(surface ARAP keeps the surface rigid, not the inside). Global and Infill work with the Quasi-Newton and "
         "Local/Global methods (with Anderson, Quasi-Newton is used)",
-        items=VOLUME_ITEMS, default='NONE', update=_volume_changed,
+        update=_volume_changed,
     )
-    infill_resolution: IntProperty(
+    infill_resolution: option_int(
+        "infill_resolution",
         name="Infill Resolution",
         description="Lattice cubes along the longest side of the mesh: finer follows thin parts better and costs "
                     "more per round",
-        default=10, min=2, max=256, soft_max=64, update=_volume_changed,
+        soft_max=64, update=_volume_changed,
     )
-    acceleration: IntProperty(
+    acceleration: option_int(
+        "anderson_window",
         name="Acceleration",
         description="Speeds up settling of the Anderson method by extrapolating from this many past rounds "
                     "(Anderson acceleration). A step is kept only when it improves the pose",
-        default=5, min=0, max=20,
     )
-    threads: IntProperty(
+    threads: option_int(
+        "threads",
         name="Threads",
         description="CPU threads for the solver; more than 1 only helps on large meshes (100k+ vertices) "
                     "when the computer is otherwise idle",
-        default=1, min=1, max=64,
     )
     output: EnumProperty(
         name="Result", description="Where the deformed coordinates are written",

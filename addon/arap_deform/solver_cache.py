@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Bound solvers reused across Deform's redo-panel re-runs, keyed on object,
-topology, rest shape, constraint set, weights and volume terms (as LoopTools caches its data).
+topology, rest shape, constraint set, stiffness, weights and volume terms (as
+LoopTools caches its data).
 """
 
 import hashlib

@@ -41,12 +41,13 @@ def lines():
     return out
 
 
-def redraw(context=None):
-    """Ask every 3D viewport to draw again (the overlay changed between inputs)."""
+def redraw(context=None, areas=('VIEW_3D',)):
+    """Ask every 3D viewport (every area of the types `areas`: the bake's progress bar is in the
+    'STATUSBAR') to draw again: what the modal operators show changed between inputs."""
     wm = (context or bpy.context).window_manager
     for window in wm.windows if wm is not None else ():
         for area in window.screen.areas:
-            if area.type == 'VIEW_3D':
+            if area.type in areas:
                 area.tag_redraw()
 
 

@@ -3,8 +3,8 @@
 cache, the batch worker's .blend), so that readers never see half a file:
 how they are named, and how the ones a dead process left are found.
 
-Plain Python (no bpy): the arap-batch launcher imports this file too (the
-build copies it beside the launcher's library, cmake/ArapBatch.cmake).
+Plain Python (no bpy): the arap-batch launcher loads this file too, from the
+add-on folder its workers run (arap_batch/cli.py), so both use one rule.
 """
 
 import os

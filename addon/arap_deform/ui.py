@@ -1,10 +1,13 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Sidebar panel (View3D > Sidebar > ARAP), the handle list and a menu that
-puts every operator in F3 search (Object menu and Edit Mode Vertex menu)."""
+puts the posing and set-up operators in F3 search (Object menu and Edit Mode
+Vertex menu); the bake's sub-panel is bake_ops.py's."""
+
+import textwrap
 
 import bpy
 
-from . import auto, sessions
+from . import auto, properties, sessions
 
 
 class ARAP_UL_handles(bpy.types.UIList):
@@ -18,6 +21,14 @@ class ARAP_UL_handles(bpy.types.UIList):
 
 
 NO_MESH_HINT = "Select a mesh object to pose it"
+
+
+def draw_native_error(layout, message, width=48):
+    """Why nothing can be solved (the native module did not load when the add-on was enabled) and what
+    to rebuild, in lines the sidebar shows whole."""
+    col = layout.box().column(align=True)
+    for k, line in enumerate(textwrap.wrap(message, width)):
+        col.label(text=line, icon='ERROR' if k == 0 else 'BLANK1')
 
 
 def panel_object(context):
@@ -36,6 +47,8 @@ class ARAP_PT_main(bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
+        if properties.NATIVE_ERROR:
+            draw_native_error(layout, properties.NATIVE_ERROR)
         obj = panel_object(context)
         if obj is None:
             layout.label(text=NO_MESH_HINT, icon='INFO')
@@ -117,6 +130,11 @@ class SubPanel:
 class ARAP_PT_solver(SubPanel, bpy.types.Panel):
     """How the solver works: method, rounds, frame budget, tolerance, weights, acceleration, threads"""
     bl_label = "Solver"
+
+    @classmethod
+    def poll(cls, context):
+        # Without the native module the settings have no limits from its table: nothing to set.
+        return properties.NATIVE_ERROR is None and super().poll(context)
 
     def draw(self, context):
         s = panel_object(context).arap

@@ -117,7 +117,7 @@ def bench_settle(api, vertices, drag_updates=10, timer_interval_ms=1000.0 / 30.0
     live = session.positions().reshape(-1, 3).astype(np.float64).copy()
     solver = session.solver
     solver.time_budget_ms, solver.tolerance, solver.max_iterations = 0.0, 1e-10, 5000
-    solver.solve(session.problem.targets)
+    solver.solve(session.targets)
     gap = float(np.abs(solver.positions() - live).max())
     session.cancel()
     return {"vertices": len(obj.data.vertices), "updates": updates, "cpu_ms": settle_cpu, "wall_ms": settle_wall,

@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The set-up operators (vertex groups and handles from the selection), Reset
-to Rest and Set Rest Pose: gather from bpy, call the API, report. Deform is
-in deform_ops.py, Live in live_ops.py."""
+"""The set-up operators: the fixed group and handles from the selected
+vertices, and the handle list's add and remove buttons. Deform, Reset to Rest
+and Set Rest Pose are in deform_ops.py, Live in live_ops.py, the bake in
+bake_ops.py."""
 
 import bmesh
 import bpy
@@ -9,7 +10,7 @@ import numpy as np
 from bpy.props import StringProperty
 from mathutils import Matrix, Vector
 
-from . import api, errors, sessions
+from . import api, sessions
 
 
 def _mesh_object(context):
@@ -203,41 +204,11 @@ class ARAP_OT_handle_remove(bpy.types.Operator):
         return {'FINISHED'}
 
 
-class _ApplyToActiveObject:
-    """Mixin: execute() runs `action` (an api function) on the panel's mesh and reports its errors."""
-    action = None
-
-    def execute(self, context):
-        try:
-            type(self).action(sessions.target_mesh(context))
-        except Exception as exc:  # noqa: BLE001 - report_error re-raises what is not a user error
-            return errors.report_error(self, exc)
-        return {'FINISHED'}
-
-
-class ARAP_OT_reset(_ApplyToActiveObject, bpy.types.Operator):
-    """Put the mesh back to its rest shape and take the empties' current poses as their bind poses"""
-    bl_idname = "object.arap_reset"
-    bl_label = "Reset to Rest"
-    bl_options = {'REGISTER', 'UNDO'}
-    action = staticmethod(api.reset)
-
-
-class ARAP_OT_set_rest_pose(_ApplyToActiveObject, bpy.types.Operator):
-    """Take the current shape as the rest shape and the empties' current poses as bind poses"""
-    bl_idname = "object.arap_set_rest_pose"
-    bl_label = "Set Rest Pose"
-    bl_options = {'REGISTER', 'UNDO'}
-    action = staticmethod(api.set_rest_pose)
-
-
 classes = (
     ARAP_OT_add_handle_from_selection,
     ARAP_OT_set_fixed_from_selection,
     ARAP_OT_handle_add,
     ARAP_OT_handle_remove,
-    ARAP_OT_reset,
-    ARAP_OT_set_rest_pose,
 )
 
 register, unregister = bpy.utils.register_classes_factory(classes)
