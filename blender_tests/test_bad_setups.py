@@ -114,7 +114,7 @@ class BadSetups(unittest.TestCase):
         self.assertGreater(len(both), len(self.fixed))
 
     def test_vertex_in_two_handles_follows_the_first(self):
-        # The core's rule (README, "Constraints: the rules"): the first handle in the list wins,
+        # The core's rule (docs/design.md, "Constraints: the rules"): the first handle in the list wins,
         # and the warning names the handle that took the vertices.
         upper = U.group_where(self.obj, "upper", lambda co: co.z > 1.0)
         api.add_handle(self.obj, "upper", U.add_empty("Still", Matrix.Translation((0.0, 0.0, 1.3))))

@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 
 import arap_test_utils as U
-import batch_scenes as S
+import batch_fixtures as S
 
 PYTHON = "/usr/bin/python3" if os.path.exists("/usr/bin/python3") else shutil.which("python3")
 SOURCE = os.path.realpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "addon"))

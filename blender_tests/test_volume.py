@@ -1,4 +1,4 @@
-# The Volume setting (README, "Keeping the volume"): Global keeps the enclosed
+# The Volume setting (docs/volume.md): Global keeps the enclosed
 # volume in Deform, Live, Auto mode and the bake, is saved in the .blend, says
 # which open parts it leaves, falls back from Anderson to Quasi-Newton; Infill
 # poses closed and open meshes. Volumes are computed here from the mesh's

@@ -89,7 +89,7 @@ def check_object(obj):
 
 def gather(obj, scene=None):
     """Validate obj.arap and return a Setup; raises SetupError. Which vertex
-    follows which group is the core's rule (native constraint_set, README
+    follows which group is the core's rule (native constraint_set, docs/design.md,
     "Constraints: the rules"): fixed first, fixed wins, the first handle wins."""
     check_object(obj)
     s = obj.arap

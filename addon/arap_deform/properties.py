@@ -90,7 +90,7 @@ INIT_ITEMS, INIT_NAMES = _choices(
 METHOD_ITEMS, METHOD_NAMES = _choices(
     ('QUASI_NEWTON', "quasi-newton", "Quasi-Newton", "L-BFGS with the factored Laplacian and a line search "
      "(Liu et al. 2017): the same minimum as local/global, on meshes of 10k+ vertices in a fifth of the time "
-     "or less (README)"),
+     "or less"),
     ('LOCAL_GLOBAL', "local-global", "Local/Global", "The textbook alternation of Sorkine & Alexa 2007"),
     ('ANDERSON', "anderson", "Anderson", "Local/global with Anderson acceleration over the Acceleration window"),
 )

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Measure the choices behind the defaults (README, "Defaults, and why").
+"""Measure the choices behind the defaults (docs/design.md, "Defaults, and why").
 
     python3 bench/native/defaults_table.py build/arap-deform ../shared/scenarios > defaults.md
 

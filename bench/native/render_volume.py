@@ -1,4 +1,4 @@
-"""The README's "Keeping the volume" picture: one bent bar posed by surface ARAP,
+"""The picture of docs/volume.md: one bent bar posed by surface ARAP,
 Volume Global and Volume Infill, side by side, rendered headlessly by Blender.
 
     blender --background --factory-startup --python bench/native/render_volume.py -- \\

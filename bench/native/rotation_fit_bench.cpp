@@ -1,5 +1,5 @@
 // Micro-benchmark of the 3x3 rotation fit: the fast Davenport/Newton path
-// against Eigen's JacobiSVD on the same covariances (README, "How it works").
+// against Eigen's JacobiSVD on the same covariances (docs/design.md, "How it works").
 //   build/arap-bench-rotation-fit [cells]
 #include <chrono>
 #include <cstdio>

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Measure the volume modes (README, "Keeping the volume").
+"""Measure the volume modes (docs/volume.md).
 
     python3 bench/native/volume_table.py build ../shared/scenarios build/results/volume
 

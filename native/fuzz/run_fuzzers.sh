@@ -4,7 +4,7 @@
 # FUZZ_SEED=N fixes libFuzzer's random seed (setup.sh sanitize, and so CI, uses 1:
 # the same inputs every run, so CI does not turn red at random); unset, each
 # run explores differently.
-# BUILD_DIR was configured with -DARAP_FUZZ=ON (README, "Sanitizers and fuzzing").
+# BUILD_DIR was configured with -DARAP_FUZZ=ON (docs/robustness.md, "Sanitizers and fuzzing").
 # The seeds are copied, so the repository's corpus is never changed; new
 # inputs and crash reproducers stay in a temporary folder that is named on
 # failure. Exits non-zero on any crash, hang (-timeout), leak, out-of-memory

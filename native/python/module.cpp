@@ -239,7 +239,7 @@ PYBIND11_MODULE(_arap_native, m) {
       });
 
   py::class_<arap::ConstraintSet>(m, "ConstraintSet",
-                                  "Constrained vertices by the rules of arap/constraints.h (README, 'Constraints').")
+                                  "Constrained vertices by the rules of arap/constraints.h (docs/design.md, 'Constraints: the rules').")
       .def_property_readonly(
           "constrained",
           [](const arap::ConstraintSet& s) {

@@ -1,5 +1,5 @@
 // Which vertices are constrained, and by which group: the one rule that the
-// command line, the Python module and the Blender add-on share (README,
+// command line, the Python module and the Blender add-on share (docs/design.md,
 // "Constraints: the rules").
 //
 // The constrained vertices are listed fixed first, then each handle's own

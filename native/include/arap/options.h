@@ -12,19 +12,19 @@ namespace arap {
 // Edge weights w_ij of the energy and of the Laplacian.
 enum class Weights {
   Cotan,         // (cot a + cot b) / 2 as in Sorkine & Alexa 2007; may be negative
-  CotanClamped,  // each negative cotangent set to 0 before summing (default, see README)
+  CotanClamped,  // each negative cotangent set to 0 before summing (default, see docs/design.md)
   Uniform,       // w_ij = 1
 };
 
 // How the positions are initialised before the first local step.
 enum class InitialGuess {
   Differential,  // Lipman et al. 2004: uniform-Laplacian coordinates, constraints hard
-  Naive,         // rest shape with the constrained vertices moved to their targets (default, see README)
+  Naive,         // rest shape with the constrained vertices moved to their targets (default, see docs/design.md)
   Laplacian,     // one global step with identity rotations (Laplacian editing)
   WarmStart,     // the last solution (falls back to `cold_start` before the first solve)
 };
 
-// How the energy is minimised (see README, "Defaults, and why").
+// How the energy is minimised (see docs/design.md, "Defaults, and why").
 enum class Method {
   QuasiNewton,  // L-BFGS on the ARAP energy, the factored Laplacian as its initial Hessian and a
                 // line search (Liu et al. 2017); energy monotone; the default
@@ -32,7 +32,7 @@ enum class Method {
   Anderson,     // local/global with Anderson acceleration over `anderson_window` iterates (Peng et al. 2018)
 };
 
-// What keeps the volume of thick parts where they bend (see README, "Keeping the volume").
+// What keeps the volume of thick parts where they bend (see docs/volume.md).
 enum class Volume {
   None,    // surface ARAP only (Sorkine & Alexa 2007)
   Global,  // the enclosed volume of every closed component kept at its rest value, exactly
