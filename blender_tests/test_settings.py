@@ -172,7 +172,7 @@ class WithoutTheNativeModule(unittest.TestCase):
         probe = importlib.import_module("arap_abi_probe")
         probe.register()
         try:
-            message = probe.properties.NATIVE_ERROR
+            message = probe.solver_settings.NATIVE_ERROR
             self.assertIn("only for Python 3.99", message)
             self.assertIn("Rebuild the module for Python %d.%d" % sys.version_info[:2], message)
             self.assertTrue(hasattr(bpy.types.Object, "arap"))

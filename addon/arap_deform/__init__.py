@@ -3,8 +3,8 @@
 
 This file only registers. See api.py for scripting; engine.py (Deform),
 live.py (Live), bake.py and auto.py for the jobs, problem.py for what they
-read from Blender, native_loader.py for the native bridge; properties.py,
-setup_ops.py, deform_ops.py, live_ops.py, bake_ops.py, ui.py and
+read from Blender, native_loader.py for the native bridge; solver_settings.py,
+properties.py, setup_ops.py, deform_ops.py, live_ops.py, bake_ops.py, ui.py and
 status_overlay.py for the Blender side.
 """
 

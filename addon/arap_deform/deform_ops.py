@@ -11,7 +11,7 @@ done, as one undo step).
 
 import bpy
 
-from . import engine, errors, properties, sessions, status_overlay
+from . import engine, errors, sessions, solver_settings, status_overlay
 
 # Input that still reaches the viewport while Deform runs (looking around); the rest waits.
 NAVIGATION = {'MIDDLEMOUSE', 'WHEELUPMOUSE', 'WHEELDOWNMOUSE', 'MOUSEMOVE', 'INBETWEEN_MOUSEMOVE',
@@ -26,15 +26,15 @@ class ARAP_OT_deform(bpy.types.Operator):
     bl_options = {'REGISTER', 'UNDO'}
 
     # The redo panel (F9) shows the values the solve used: _start_job() fills any not given from the
-    # object's settings; defaults and limits are the settings' (properties.py, from the option table).
-    iterations: properties.option_int(
-        "max_iterations", name="Iterations", **properties.ITERATIONS_RANGE,
+    # object's settings; defaults and limits are the settings' (solver_settings.py, from the option table).
+    iterations: solver_settings.option_int(
+        "max_iterations", name="Iterations", **solver_settings.ITERATIONS_RANGE,
         description="Most solver rounds; it stops earlier once the pose has settled")
-    tolerance: properties.option_float(
-        "tolerance", name="Tolerance", **properties.TOLERANCE_STYLE,
+    tolerance: solver_settings.option_float(
+        "tolerance", name="Tolerance", **solver_settings.TOLERANCE_STYLE,
         description="Stop when a round improves the pose by less than this fraction")
-    init: properties.option_enum(
-        "init", properties.INIT_ITEMS, properties.INIT_NAMES, name="Start From",
+    init: solver_settings.option_enum(
+        "init", solver_settings.INIT_ITEMS, solver_settings.INIT_NAMES, name="Start From",
         description="The shape the solver starts from")
 
     running = None   # the modal Deform's job while it runs (what the viewport's lines show)

@@ -14,7 +14,7 @@ from . import constraints, meshio
 from .errors import SetupError
 from .native_loader import native
 # Blender enum items -> the native module's option values (declared with the items).
-from .properties import INIT_NAMES, METHOD_NAMES, VOLUME_NAMES, WEIGHT_NAMES  # noqa: F401
+from .solver_settings import INIT_NAMES, METHOD_NAMES, VOLUME_NAMES, WEIGHT_NAMES
 
 
 def volume_options(settings):

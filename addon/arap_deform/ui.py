@@ -7,7 +7,7 @@ import textwrap
 
 import bpy
 
-from . import auto, properties, sessions
+from . import auto, sessions, solver_settings
 
 
 class ARAP_UL_handles(bpy.types.UIList):
@@ -47,8 +47,8 @@ class ARAP_PT_main(bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        if properties.NATIVE_ERROR:
-            draw_native_error(layout, properties.NATIVE_ERROR)
+        if solver_settings.NATIVE_ERROR:
+            draw_native_error(layout, solver_settings.NATIVE_ERROR)
         obj = panel_object(context)
         if obj is None:
             layout.label(text=NO_MESH_HINT, icon='INFO')
@@ -134,7 +134,7 @@ class ARAP_PT_solver(SubPanel, bpy.types.Panel):
     @classmethod
     def poll(cls, context):
         # Without the native module the settings have no limits from its table: nothing to set.
-        return properties.NATIVE_ERROR is None and super().poll(context)
+        return solver_settings.NATIVE_ERROR is None and super().poll(context)
 
     def draw(self, context):
         s = panel_object(context).arap
