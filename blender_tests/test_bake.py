@@ -232,8 +232,12 @@ class Bake(unittest.TestCase):
         bake_ops.draw_status_bar(header, bpy.context)
         self.assertEqual(header.layout.calls, [])  # nothing while no bake runs
         run = bake_ops.InteractiveBake(bake.Baker(self.obj, 1, 4))
-        while run.baker.index < 1:
-            run.step(slice_ms=0.0)   # no waiting: at most the frame in hand comes back a tick
+        # One frame solved, by hand: a tick of run.step() takes as many as the worker finished,
+        # which on this tiny mesh can be any number.
+        run.baker.post_frame(run.worker)
+        self.assertTrue(run.worker.wait(30000))
+        self.assertTrue(run.baker.take_frame(run.worker))
+        self.assertEqual(run.baker.index, 1)
         bake_ops.draw_status_bar(header, bpy.context)
         kind, kw = header.layout.calls[-1]
         self.assertEqual(kind, "progress")
