@@ -25,6 +25,7 @@
 #include "band.h"
 #include "bench_cases.h"
 #include "cpu_clock.h"
+#include "settle.h"
 #ifdef ARAP_BENCH_HAVE_CGAL
 #include "cgal_arap.h"
 #endif
@@ -52,6 +53,8 @@ struct Args {
   int band_iterations = 2000;
   int band_extend = 0;
   double band_cap = 0;
+  double settle_step = 0;  // > 0: the settle-after-a-step mode
+  int settle_repeats = 3;
 };
 
 const char* kUsage = R"(usage: arap-bench [options] [mesh.off|.obj|.ply|scenario.json ...]
@@ -82,6 +85,11 @@ const char* kUsage = R"(usage: arap-bench [options] [mesh.off|.obj|.ply|scenario
   --band-extend N        local-global and quasi-newton runs not in the band within the budget go on
                          (resumed exactly, by warm starts) up to N iterations to find when they enter
                          it (marked * in band.md; default 0: off)
+  --settle-step F        instead of the per-iteration tables: each method settles the case's pose with the
+                         default options, the handles move F times the longest side further along their
+                         motion (e.g. 0.05), and the warm-started settle of that step is measured: iterations,
+                         median CPU ms, in the band of the moved pose or not; writes settle.md and settle.json
+  --settle-repeats K     timed settles per method (default 3)
   --band-cap R           the other methods' extended runs, and CGAL, stop once their CPU time passes R
                          times quasi-newton's time to the band ("> t", so the ratio is below 1/R), and a
                          solve to the band that alone takes longer is timed once (default 0: off)
@@ -145,6 +153,11 @@ Args parse_args(int argc, char** argv) {
       a.band_iterations = std::max(1, std::stoi(value()));
     } else if (flag == "--band-extend") {
       a.band_extend = std::max(0, std::stoi(value()));
+    } else if (flag == "--settle-step") {
+      a.settle_step = std::stod(value());
+      if (!(a.settle_step > 0)) throw std::runtime_error("--settle-step needs a fraction > 0");
+    } else if (flag == "--settle-repeats") {
+      a.settle_repeats = std::max(1, std::stoi(value()));
     } else if (flag == "--band-cap") {
       a.band_cap = std::max(0.0, std::stod(value()));
     } else if (!flag.empty() && flag[0] == '-') {
@@ -556,14 +569,21 @@ void write_results(const json& doc, const std::filesystem::path& dir) {
   }
 }
 
-void write_band_results(const json& doc, const std::filesystem::path& dir) {
+// Writes <stem>.json and opens <stem>.md with its title and the version, machine and date line.
+std::ofstream start_results(const json& doc, const std::filesystem::path& dir, const std::string& stem,
+                            const char* title) {
   std::filesystem::create_directories(dir);
-  std::ofstream(dir / "band.json") << doc.dump(1) << "\n";
-  std::ofstream md(dir / "band.md");
-  md << "# Time to the band\n\n"
+  std::ofstream(dir / (stem + ".json")) << doc.dump(1) << "\n";
+  std::ofstream md(dir / (stem + ".md"));
+  md << "# " << title << "\n\n"
      << "arap " << doc["arap_version"].get<std::string>() << ", " << doc["machine"]["cpu"].get<std::string>() << ", "
-     << doc["date"].get<std::string>() << ".\n\n"
-     << "Cold start (naive guess, cotan-clamped weights, one thread). E* = the lowest energy any method reaches in "
+     << doc["date"].get<std::string>() << ".\n\n";
+  return md;
+}
+
+void write_band_results(const json& doc, const std::filesystem::path& dir) {
+  std::ofstream md = start_results(doc, dir, "band", "Time to the band");
+  md << "Cold start (naive guess, cotan-clamped weights, one thread). E* = the lowest energy any method reaches in "
      << doc["settings"]["band_iterations"].get<int>()
      << " iterations (each stops early only once its energy no longer moves, relative change <= 1e-14); the band "
         "is E <= E* + 1e-3 |E*|. Cells: iterations to the band / median CPU ms (CLOCK_THREAD_CPUTIME_ID) of 3 cold "
@@ -579,6 +599,20 @@ void write_band_results(const json& doc, const std::filesystem::path& dir) {
        << "x quasi-newton's time to the band (\"> t\" then bounds the ratio below 1/" << cap
        << "), and a solve to the band that alone takes longer than that is timed once.";
   md << "\n\n" << bench::band_table(doc["meshes"]);
+}
+
+void write_settle_results(const json& doc, const std::filesystem::path& dir) {
+  std::ofstream md = start_results(doc, dir, "settle", "The settle after a step");
+  md << "Each method binds with the default options (one thread), settles the case's pose, then the handles move "
+     << doc["settings"]["settle_step"].get<double>()
+     << " times the bounding box's longest side further along their motion and it settles again, warm-started "
+        "(as Live and Auto mode do), to the default tolerance stop. Cells: that settle's iterations / median CPU ms "
+        "(CLOCK_THREAD_CPUTIME_ID) of "
+     << doc["settings"]["settle_repeats"].get<int>()
+     << " / in the band E <= E* + 1e-3 |E*| of the moved pose, E* found by quasi-newton resumed from the lowest "
+        "settle until its energy no longer moves; \"(cap)\": stopped by the iteration cap. Ratios: CPU ms over "
+        "quasi-newton's, same run.\n\n"
+     << bench::settle_table(doc["meshes"]);
 }
 
 std::string now_utc() {
@@ -618,7 +652,9 @@ int main(int argc, char** argv) {
                   {"repeat_seconds", args.repeat_seconds},
                   {"band_iterations", args.band_iterations},
                   {"band_extend", args.band_extend},
-                  {"band_cap", args.band_cap}}},
+                  {"band_cap", args.band_cap},
+                  {"settle_step", args.settle_step},
+                  {"settle_repeats", args.settle_repeats}}},
                 {"peak_reset_works", peak_reset_works()},
 #ifdef ARAP_BENCH_HAVE_CGAL
                 {"cgal_available", true},
@@ -633,6 +669,14 @@ int main(int argc, char** argv) {
                                                 : bench::file_case(args.files[index - procedural.size()]);
       std::cerr << "[" << index + 1 << "/" << total << "] " << c.name << ": " << c.rest.rows() << " vertices, "
                 << c.constrained.size() << " constrained" << std::endl;
+      if (args.settle_step > 0) {
+        bench::SettleSettings settle;
+        settle.step = args.settle_step;
+        settle.repeats = args.settle_repeats;
+        doc["meshes"].push_back(bench::settle_after_step(c, settle));
+        write_settle_results(doc, args.output_dir);
+        continue;
+      }
       if (args.time_to_band) {
         bench::BandSettings band;
         band.reference_iterations = args.band_iterations;
@@ -692,7 +736,7 @@ int main(int argc, char** argv) {
       doc["meshes"].push_back(std::move(m));
       write_results(doc, args.output_dir);
     }
-    const char* stem = args.time_to_band ? "band" : "results";
+    const char* stem = args.settle_step > 0 ? "settle" : args.time_to_band ? "band" : "results";
     std::cerr << "wrote " << (std::filesystem::path(args.output_dir) / stem).string() << ".md and " << stem
               << ".json" << std::endl;
     return 0;

@@ -10,6 +10,7 @@
 
 #include "arap/solver.h"
 #include "cpu_clock.h"
+#include "methods.h"
 #ifdef ARAP_BENCH_HAVE_CGAL
 #include "cgal_arap.h"
 #endif
@@ -20,18 +21,7 @@ namespace {
 
 using nlohmann::json;
 
-struct Method {
-  const char* label;
-  arap::Method method;
-};
-const Method kMethods[] = {{"local-global", arap::Method::LocalGlobal},
-                           {"anderson-5", arap::Method::Anderson},
-                           {"quasi-newton", arap::Method::QuasiNewton}};
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? NAN : v[v.size() / 2];
-}
+const MethodLabel kMethods[] = {kLocalGlobal, kAnderson5, kQuasiNewton};
 
 // First k (1-based) with energy[k-1] <= limit, or 0.
 int first_in_band(const std::vector<double>& energy, double limit) {
@@ -95,7 +85,7 @@ json time_to_band(const Case& c, const BandSettings& settings) {
   std::vector<arap::Solver> solvers;
   double best = std::numeric_limits<double>::infinity();
   // Reference runs: the whole budget, stopping only once the energy no longer moves.
-  for (const Method& m : kMethods) {
+  for (const MethodLabel& m : kMethods) {
     solvers.push_back(bound(c, m.method));
     arap::Solver& s = solvers.back();
     s.options().max_iterations = settings.reference_iterations;
