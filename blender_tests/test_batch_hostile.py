@@ -1,4 +1,4 @@
-# arap-batch with destinations and inputs it cannot use (issue 14): refused
+# arap-batch with destinations and inputs it cannot use: refused
 # before any work with exit 2 and one line, nothing written, inputs untouched;
 # a save that fails on a full disk says so.
 import os

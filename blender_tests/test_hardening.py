@@ -1,4 +1,4 @@
-# Hostile inputs to the native module and hostile Blender set-ups (issue 14):
+# Hostile inputs to the native module and hostile Blender set-ups:
 # each ends in a typed error with a one-line message, writes nothing, and
 # leaves the mesh (coordinates, shape keys, attributes) exactly as it was.
 import os

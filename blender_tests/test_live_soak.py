@@ -1,4 +1,4 @@
-# A bounded Live soak (issue 14): 6000 steps of one session while an Empty
+# A bounded Live soak: 6000 steps of one session while an Empty
 # goes round a closed path again and again. Memory stays flat, and each time
 # the path comes back to the same pose the energy is the same: no drift, no
 # growth, nothing accumulating in the session.

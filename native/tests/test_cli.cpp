@@ -256,7 +256,7 @@ TEST_F(Cli, ScenarioWithMatrixHandleAndOverlapWarning) {
   EXPECT_LT((out.vertices.row(fixed_[0]) - bar.vertices.row(fixed_[0])).norm(), 1e-9);
 }
 
-// A vertex in two handles follows the first (it was an error before issue 13):
+// A vertex in two handles follows the first:
 // the run succeeds, the warning names handle 0, the vertex lands on handle 0's target.
 TEST_F(Cli, AVertexInTwoHandlesFollowsTheFirstWithAWarning) {
   const auto bar = make_bar_files("bar.off");

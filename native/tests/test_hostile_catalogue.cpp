@@ -1,4 +1,4 @@
-// The hostile-input catalogue of the command line (issue 14): generated mesh
+// The hostile-input catalogue of the command line: generated mesh
 // files, scenarios and arguments, each run through arap-deform. Every one
 // must end in exit 2 with one line on stderr, write nothing, leave every
 // input file byte for byte as it was, and finish (a hang is killed by

@@ -1,5 +1,5 @@
 // Results do not depend on the unit the mesh is modelled in, and the
-// statistics of every solve are finite (issue 14, items 6 and 13).
+// statistics of every solve are finite.
 #include <gtest/gtest.h>
 
 #include <cmath>
