@@ -606,8 +606,8 @@ void write_settle_results(const json& doc, const std::filesystem::path& dir) {
   md << "Each method binds with the default options (one thread), settles the case's pose, then the handles move "
      << doc["settings"]["settle_step"].get<double>()
      << " times the bounding box's longest side further along their motion and it settles again, warm-started "
-        "(as Live and Auto mode do), to the default tolerance stop. Cells: that settle's iterations / median CPU ms "
-        "(CLOCK_THREAD_CPUTIME_ID) of "
+        "(as Live and Auto mode do), to the default tolerance stop. Cells: that settle's iterations / the first "
+        "iteration in the band (\"-\": none) / median CPU ms (CLOCK_THREAD_CPUTIME_ID) of "
      << doc["settings"]["settle_repeats"].get<int>()
      << " / in the band E <= E* + 1e-3 |E*| of the moved pose, E* found by quasi-newton resumed from the lowest "
         "settle until its energy no longer moves; \"(cap)\": stopped by the iteration cap. Ratios: CPU ms over "

@@ -44,6 +44,7 @@ json settle_after_step(const Case& c, const SettleSettings& settings) {
   json runs = json::array();
   double best = std::numeric_limits<double>::infinity();
   arap::Points best_positions;
+  std::vector<std::vector<double>> traces;  // each method's energies over its timed settle
   for (const MethodLabel& m : kMethods) {
     arap::Options o;  // the defaults a user gets, but for the method
     o.method = m.method;
@@ -62,6 +63,7 @@ json settle_after_step(const Case& c, const SettleSettings& settings) {
     }
     const double energy = settle.energy.empty() ? settle.initial_energy : settle.energy.back();
     if (energy < best) best = energy, best_positions = s.positions();
+    traces.push_back(settle.energy);
     runs.push_back({{"method", m.label},
                     {"cpu_ms", median(ms)},
                     {"cpu_ms_runs", ms},
@@ -87,7 +89,10 @@ json settle_after_step(const Case& c, const SettleSettings& settings) {
   }
   const double limit = best + settings.band * std::abs(best);
   const double reference_ms = runs[0]["cpu_ms"].get<double>();
-  for (json& r : runs) {
+  for (size_t k = 0; k < runs.size(); ++k) {
+    json& r = runs[k];
+    const auto entered = std::find_if(traces[k].begin(), traces[k].end(), [&](double e) { return e <= limit; });
+    r["band_iteration"] = entered == traces[k].end() ? -1 : 1 + (entered - traces[k].begin());
     r["in_band"] = r["energy"].get<double>() <= limit;
     r["gap"] = (r["energy"].get<double>() - best) / std::abs(best);
     r["ratio_to_quasi_newton"] = r["cpu_ms"].get<double>() / reference_ms;
@@ -99,16 +104,18 @@ json settle_after_step(const Case& c, const SettleSettings& settings) {
 std::string settle_table(const json& meshes) {
   std::ostringstream md;
   md << "| mesh | V |";
-  for (const MethodLabel& m : kMethods) md << " " << m.label << ": it / CPU ms / in band |";
+  for (const MethodLabel& m : kMethods) md << " " << m.label << ": it / band at / CPU ms / in band |";
   md << " local-global / quasi-newton | anderson-5 / quasi-newton |\n|---|---:|";
   for (size_t k = 0; k < std::size(kMethods); ++k) md << "---:|";
   md << "---:|---:|\n";
   for (const json& m : meshes) {
     md << "| " << m["name"].get<std::string>() << " | " << m["vertices"].get<long>() << " |";
     for (const json& r : m["runs"]) {
-      char cell[96];
-      std::snprintf(cell, sizeof cell, " %d%s / %.4g / %s |", r["iterations"].get<int>(),
-                    r["converged"].get<bool>() ? "" : " (cap)", r["cpu_ms"].get<double>(),
+      const int band_at = r["band_iteration"].get<int>();
+      char cell[128];
+      std::snprintf(cell, sizeof cell, " %d%s / %s / %.4g / %s |", r["iterations"].get<int>(),
+                    r["converged"].get<bool>() ? "" : " (cap)",
+                    band_at > 0 ? std::to_string(band_at).c_str() : "-", r["cpu_ms"].get<double>(),
                     r["in_band"].get<bool>() ? "yes" : "no");
       md << cell;
     }

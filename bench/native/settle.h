@@ -21,7 +21,8 @@ struct SettleSettings {
   double band = 1e-3;
 };
 
-// One mesh: per method the settle's median CPU ms, iterations, energy and band; E*.
+// One mesh: per method the settle's median CPU ms, iterations, energy, band and the iteration that first
+// entered the band; E*.
 nlohmann::json settle_after_step(const Case& c, const SettleSettings& settings);
 
 // The markdown table of a list of settle_after_step() results.
