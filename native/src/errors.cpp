@@ -13,6 +13,7 @@ const char* error_code_name(ErrorCode code) {
     case ErrorCode::NotBound: return "not bound";
     case ErrorCode::Factorization: return "factorization failed";
     case ErrorCode::Busy: return "solver busy";
+    case ErrorCode::OutOfMemory: return "out of memory";
   }
   return "unknown error";
 }

@@ -74,9 +74,10 @@ class Cli : public TempDir {
  protected:
   // A hang becomes exit 124 (a failure), not a stuck test run.
   int timeout_s_ = 60;
-  Result run(const std::string& args) {
+  // `shell`: sh commands run first, in the same shell (e.g. "ulimit -v N; ").
+  Result run(const std::string& args, const std::string& shell = "") {
     const std::string out = path("stdout.txt"), err = path("stderr.txt");
-    const std::string cmd = "cd '" + dir_.string() + "' && timeout " + std::to_string(timeout_s_) + " '" +
+    const std::string cmd = "cd '" + dir_.string() + "' && " + shell + "timeout " + std::to_string(timeout_s_) + " '" +
                             ARAP_DEFORM_EXE + "' " + args + " >'" + out + "' 2>'" + err + "'";
     const int status = std::system(cmd.c_str());
     Result r;

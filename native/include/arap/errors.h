@@ -17,6 +17,7 @@ enum class ErrorCode {
   NotBound,          // solve() before bind()
   Factorization,     // the sparse Cholesky failed (should not happen after checks)
   Busy,              // the solver is in use by a SolveWorker on another thread
+  OutOfMemory,       // a bind would need more memory than the process may use (nothing was changed)
 };
 
 const char* error_code_name(ErrorCode code);

@@ -3,6 +3,8 @@
 # Run by ctest (python.module) with PYTHONPATH set to the staged add-on folder.
 import os
 import signal
+import subprocess
+import sys
 import threading
 import unittest
 import warnings
@@ -177,6 +179,47 @@ class Threads(unittest.TestCase):
         _, status = os.waitpid(child, 0)
         self.assertTrue(os.WIFEXITED(status), f"the child ended by signal {os.WTERMSIG(status)}")
         self.assertEqual(os.WEXITSTATUS(status), 0)
+
+
+class MemoryLimit(unittest.TestCase):
+    """A bind that would not fit is refused before it allocates: ArapError "out of memory" with both figures,
+    the previous binding kept. In a child Python whose address space is limited, as `ulimit -v` does."""
+
+    CHILD = r"""
+import resource, sys
+import numpy as np
+sys.path[:0] = [%r]
+from test_module import strip
+import _arap_native as arap
+small_rest, small_tris = strip()
+large_rest, large_tris = strip(600, 300)
+s = arap.Solver()
+s.bind(small_rest, small_tris, np.arange(12, dtype=np.int32))
+vm = int([l for l in open("/proc/self/status") if l.startswith("VmSize:")][0].split()[1]) * 1024
+resource.setrlimit(resource.RLIMIT_AS, (vm + (24 << 20), resource.getrlimit(resource.RLIMIT_AS)[1]))
+try:
+    s.bind(large_rest, large_tris, np.arange(600, dtype=np.int32))
+    print("bound")
+except arap.ArapError as e:
+    print(e.code + "|" + str(e))
+resource.setrlimit(resource.RLIMIT_AS, (resource.RLIM_INFINITY, resource.RLIM_INFINITY))
+targets = small_rest[:12].copy()
+targets[:, 1] += 0.5
+s.solve(targets)
+print(s.positions().shape[0])
+"""
+
+    def test_a_bind_too_large_is_a_typed_error_and_the_previous_binding_stays(self):
+        child = subprocess.run([sys.executable, "-c", self.CHILD % os.path.dirname(os.path.abspath(__file__))],
+                               capture_output=True, text=True, timeout=120, env=os.environ)
+        self.assertEqual(child.returncode, 0, child.stderr)
+        refusal, vertices = child.stdout.split("\n")[:2]
+        code, message = refusal.split("|", 1)
+        self.assertEqual(code, "out of memory", refusal)
+        self.assertIn("binding 180000 vertices", message)
+        self.assertIn("needs about", message)
+        self.assertIn("is left under the address-space limit", message)
+        self.assertEqual(vertices, "36")  # the small strip's binding still solves
 
 
 if __name__ == "__main__":

@@ -146,6 +146,12 @@ OrderedMatrix ordered_matrix(const Eigen::SparseMatrix<double>& A, const std::ve
   return m;
 }
 
+// What the numeric factorization allocates per entry of the factor: the
+// supernodes' dense blocks (the factor's values, the upper triangles of the
+// diagonal blocks and the zeros amalgamation adds), their row lists and the
+// factor's row indices, with the update scratch (measured: docs/robustness.md).
+constexpr double kNumericBytesPerEntry = 16;
+
 // Multiply-adds of the factorization: the sum of the factor's column counts squared.
 double factor_operations(const OrderedMatrix& m) {
   double operations = 0;
@@ -155,7 +161,8 @@ double factor_operations(const OrderedMatrix& m) {
 
 }  // namespace
 
-bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel, int threads, Ordering ordering) {
+bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel, int threads, Ordering ordering,
+                           const BeforeNumeric& before_numeric) {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   n_ = A.rows();
@@ -198,6 +205,11 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel, 
   if (ordering == Ordering::Fewest || (ordering == Ordering::Auto && n_ >= kDissectionRows)) {
     OrderedMatrix dissected = ordered_matrix(A, order_parts(true), bounds);
     if (factor_operations(dissected) < factor_operations(chosen)) chosen = std::move(dissected);
+  }
+  if (before_numeric) {
+    double entries = 0;
+    for (int c : chosen.count) entries += c;
+    before_numeric(kNumericBytesPerEntry * entries);
   }
   perm_ = std::move(chosen.perm);
   const Eigen::SparseMatrix<double>& permuted = chosen.lower;

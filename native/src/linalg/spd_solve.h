@@ -20,6 +20,7 @@
 #pragma once
 
 #include <Eigen/SparseCore>
+#include <functional>
 #include <vector>
 
 #include "sorted_column.h"  // insert_sorted, for writing the matrix that factor() takes
@@ -34,11 +35,15 @@ class BlockCholesky {
   // whichever needs fewer multiply-adds to factor; Auto: Fewest from
   // kDissectionRows rows on, Amd below.
   enum class Ordering { Amd, Fewest, Auto };
+  // Called once the order is known with the bytes the numeric factorization
+  // is about to allocate (an estimate from the factor's column counts), before
+  // it allocates them: it may throw to refuse.
+  using BeforeNumeric = std::function<void(double bytes)>;
   // A: both triangles stored. Orders (see above), factors P A P^T = L L^T.
   // threads > 1 orders and (supernodal kernel) factors the two halves side by
   // side: the same factor bit for bit. Returns false if A is not SPD.
   bool factor(const Eigen::SparseMatrix<double>& A, Kernel kernel = Kernel::Supernodal, int threads = 1,
-              Ordering ordering = Ordering::Amd);
+              Ordering ordering = Ordering::Amd, const BeforeNumeric& before_numeric = nullptr);
   double ordering_ms() const { return ordering_ms_; }
   double factor_ms() const { return factor_ms_; }
   // x: rows() by 3 row-major, overwritten with A^-1 x. `work` is resized once.

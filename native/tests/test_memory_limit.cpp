@@ -1,0 +1,123 @@
+// A bind that would not fit in memory is refused before it allocates, with a
+// typed error that gives both figures, and the previous binding stays usable:
+// on Linux the alternative is the OOM killer ending the process (in Blender,
+// every unsaved change). Each case runs in a child process whose address space
+// is limited (RLIMIT_AS), as `ulimit -v` does; the command-line cases, with a
+// memory cgroup too, are in test_cli_memory.cpp.
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include "arap/errors.h"
+#include "arap/procedural.h"
+#include "arap/solver.h"
+#include "runtime/memory_headroom.h"
+#include "sanitizer_build.h"
+
+namespace {
+
+size_t address_space_bytes() {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("VmSize:", 0) == 0) return std::stoull(line.substr(7)) * 1024;
+  return 0;
+}
+
+// This process may grow by about `headroom` more bytes of address space.
+void limit_address_space(size_t headroom) {
+  rlimit limit{};
+  getrlimit(RLIMIT_AS, &limit);
+  limit.rlim_cur = address_space_bytes() + headroom;
+  if (setrlimit(RLIMIT_AS, &limit) != 0) std::exit(3);
+}
+
+arap::Solver bound_to(const arap::procedural::TriMesh& mesh) {
+  const arap::procedural::Bend bend = arap::procedural::bend(mesh.vertices);
+  arap::Solver solver;
+  solver.bind(mesh.vertices, mesh.triangles, bend.constrained, arap::Options{});
+  return solver;
+}
+
+TEST(MemoryLimit, HeadroomNamesTheAddressSpaceLimit) {
+  if (arap_test::kSanitizerBuild) GTEST_SKIP() << "the address space is not limited under a sanitizer";
+  EXPECT_EXIT(
+      {
+        limit_address_space(size_t(64) << 20);
+        const arap::MemoryHeadroom h = arap::memory_headroom();
+        const bool named = h.limit.find("address-space limit") != std::string::npos;
+        const bool near = h.bytes > (size_t(48) << 20) && h.bytes <= (size_t(64) << 20);
+        std::fprintf(stderr, "%zu bytes under %s\n", h.bytes, h.limit.c_str());
+        std::exit(named && near ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
+}
+
+TEST(MemoryLimit, ABindTooLargeIsRefusedAndThePreviousBindingKept) {
+  if (arap_test::kSanitizerBuild) GTEST_SKIP() << "the address space is not limited under a sanitizer";
+  EXPECT_EXIT(
+      {
+        const auto small = arap::procedural::make_bar(3, 3, 15, 1, 1, 5);
+        const auto large = arap::procedural::make_sphere(200000);
+        const arap::procedural::Bend small_bend = arap::procedural::bend(small.vertices);
+        const arap::procedural::Bend large_bend = arap::procedural::bend(large.vertices);
+        arap::Solver solver = bound_to(small);
+        limit_address_space(size_t(40) << 20);
+        bool refused = false;
+        try {
+          solver.bind(large.vertices, large.triangles, large_bend.constrained, arap::Options{});
+        } catch (const arap::Error& e) {
+          const std::string m = e.what();
+          std::fprintf(stderr, "%s\n", e.what());
+          refused = e.code() == arap::ErrorCode::OutOfMemory && m.find("needs about") != std::string::npos &&
+                    m.find("is left under the address-space limit") != std::string::npos &&
+                    m.find(std::to_string(large.vertices.rows()) + " vertices") != std::string::npos;
+        }
+        // The small binding still solves, to finite positions.
+        const arap::SolveStats stats = solver.solve(small_bend.targets);
+        const bool kept = solver.vertex_count() == small.vertices.rows() && solver.positions().allFinite() &&
+                          stats.iterations > 0;
+        std::exit(refused && kept ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
+}
+
+TEST(MemoryLimit, TheFactorizationIsCheckedFromItsColumnCounts) {
+  if (arap_test::kSanitizerBuild) GTEST_SKIP() << "the address space is not limited under a sanitizer";
+  // Room for the mesh's structures but not for the factor: refused after the
+  // ordering, before the numeric factorization allocates.
+  EXPECT_EXIT(
+      {
+        const auto large = arap::procedural::make_sphere(200000);
+        const arap::procedural::Bend bend = arap::procedural::bend(large.vertices);
+        limit_address_space(size_t(170) << 20);
+        arap::Solver solver;
+        bool refused = false;
+        try {
+          solver.bind(large.vertices, large.triangles, bend.constrained, arap::Options{});
+        } catch (const arap::Error& e) {
+          std::fprintf(stderr, "%s\n", e.what());
+          refused = e.code() == arap::ErrorCode::OutOfMemory &&
+                    std::string(e.what()).find("(the factorization)") != std::string::npos;
+        }
+        std::exit(refused && !solver.is_bound() ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
+}
+
+TEST(MemoryLimit, WithRoomEnoughTheBindGoesAhead) {
+  if (arap_test::kSanitizerBuild) GTEST_SKIP() << "the address space is not limited under a sanitizer";
+  EXPECT_EXIT(
+      {
+        const auto mesh = arap::procedural::make_sphere(20000);
+        limit_address_space(size_t(400) << 20);
+        arap::Solver solver = bound_to(mesh);
+        std::exit(solver.is_bound() ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
+}
+
+}  // namespace
