@@ -1,10 +1,13 @@
-# arap-batch with destinations and inputs it cannot use: refused
-# before any work with exit 2 and one line, nothing written, inputs untouched;
-# a save that fails on a full disk says so.
+# arap-batch with destinations, inputs and numbers it cannot use: refused
+# before any work with exit 2 and one line, nothing written, no Blender started,
+# inputs untouched; a save that fails on a full disk says so.
 import os
 import shutil
+import stat
 import tempfile
 import unittest
+
+import bpy
 
 import arap_test_utils as U
 import batch_fixtures as F
@@ -33,6 +36,7 @@ class BatchHostile(unittest.TestCase):
         self.assertNotIn("Traceback", text)
         self.assertEqual(sorted(os.listdir(self.root)), before)  # nothing written
         self.assertEqual(hashes(self.src), self.inputs)
+        return text
 
     def test_destinations_are_checked_before_any_work(self):
         existing = os.path.join(self.root, "taken.txt")
@@ -45,6 +49,43 @@ class BatchHostile(unittest.TestCase):
                             fragment="is a folder")
         with open(existing) as f:
             self.assertEqual(f.read(), "keep me")
+
+    def test_numeric_flags_take_finite_numbers_in_range_only(self):
+        # Every numeric flag with the spellings nobody means (NaN, Inf, overflow, hex, empty, spaces, digit
+        # separators, non-ASCII digits, 5000 digits): exit 2, one line naming the flag and quoting at most 40
+        # characters of the value, before any Blender starts (a stand-in Blender notes each start).
+        started = os.path.join(self.root, "blender-started")
+        blender = os.path.join(self.root, "blender")
+        with open(blender, "w") as f:
+            f.write('#!/bin/sh\necho "$@" >> %s\nexec %s "$@"\n' % (started, bpy.app.binary_path))
+        os.chmod(blender, stat.S_IRWXU)
+        out = os.path.join(self.root, "out")
+        common = [self.src, "--output", out, "--blender", blender, "--report", os.path.join(self.root, "r.json")]
+        flags = [("--jobs", "%s"), ("-j", "%s"), ("--frame", "%s"), ("--iterations", "%s"), ("--timeout", "%s"),
+                 ("--bake", "%s:10"), ("--bake", "1:%s"), ("--shard", "%s/4"), ("--shard", "0/%s")]
+        spellings = ["nan", "inf", "-inf", "1e999", "-1e999", "", "0x10", "0x1p3", " 1", "1 ", "1\n", "1_0", "+-1",
+                     "\u0663", "9" * 5000]
+        for flag, form in flags:
+            for spelling in spellings + ["-0"] * (flag in ("--jobs", "-j", "--iterations", "--timeout")):
+                value = form % spelling
+                with self.subTest(flag=flag, value=value[:50]):
+                    text = self.assert_refused(*common, flag, value, fragment=flag)
+                    self.assertIn(repr(value[:40]) + ("..." if len(value) > 40 else ""), text)
+        self.assert_refused(*common, "--scheduler", "slurm", "--shards", "nan", fragment="--shards")
+        self.assert_refused(*common, "--scheduler", "slurm", "--shards", "-0", fragment="--shards")
+        # -0 is 0 where 0 is in range (frame 0, a range from frame 0): the run goes on to refuse the next
+        # mistake, an --output that is a file.
+        taken = os.path.join(self.root, "taken")
+        with open(taken, "w") as f:
+            f.write("keep me")
+        for flag, value in (("--frame", "-0"), ("--bake", "-0:0"), ("--timeout", "1e-3"), ("--frame", "+5")):
+            self.assert_refused(self.src, "--output", taken, "--blender", blender, flag, value,
+                                fragment="--output %s exists" % taken)
+        self.assertFalse(os.path.exists(started))
+        # The stand-in does note a start: a good run starts it.
+        code, text = run_batch(*common, "--timeout", "60", "--jobs", "1", timeout=300)
+        self.assertEqual(code, 0, text)
+        self.assertTrue(os.path.exists(started))
 
     def test_device_input_is_named_as_such(self):
         link = os.path.join(self.root, "zero.blend")  # not in src: hashing it would read forever

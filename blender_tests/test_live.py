@@ -1,4 +1,7 @@
-# LiveSession (the logic behind the modal Live operator), driven without an event loop.
+# LiveSession (the logic behind the modal Live operator), driven without an event loop,
+# and the Live operator's own methods on a stand-in (the posed object or an Empty deleted during Live).
+import inspect
+import types
 import unittest
 
 import bpy
@@ -7,12 +10,33 @@ from mathutils import Matrix
 
 import arap_test_utils as U
 
-api, errors, live, sessions = U.addon("api", "errors", "live", "sessions")
+api, errors, live, live_ops, sessions = U.addon("api", "errors", "live", "live_ops", "sessions")
 
 
 def move(empty, dx=0.0, dz=0.0):
     empty.matrix_world = Matrix.Translation((dx, 0.0, dz)) @ empty.matrix_world
     bpy.context.view_layer.update()
+
+
+class LiveOperator:
+    """The Live operator's methods on a plain object holding a started session: a modal operator needs
+    Blender's event loop, which --background has not. Its reports are kept in `reports`."""
+
+    def __init__(self, session):
+        self._session, self._timer, self._collapsed, self._shown = session, None, [], None
+        self.reports = []
+
+    def report(self, kind, message):
+        self.reports.append((set(kind), message))
+
+
+for _name, _method in vars(live_ops.ARAP_OT_live).items():
+    if inspect.isfunction(_method) and _name not in ("__init__", "invoke", "execute"):
+        setattr(LiveOperator, _name, _method)
+
+
+def event(kind, value='NOTHING'):
+    return types.SimpleNamespace(type=kind, value=value)
 
 
 class Live(unittest.TestCase):
@@ -223,6 +247,63 @@ class Live(unittest.TestCase):
         self.assertIn("top", str(cm.exception))
         s.cancel()
         self.assertTrue(np.array_equal(U.raw_coords(self.obj), before))
+
+    def test_deleted_object_stops_live_naming_it_and_touching_nothing(self):
+        # A script deletes the posed object while Live runs; then Blender aborts the operator
+        # (cancel()), or its next timer tick comes, or Esc, Enter: Live stops with one message naming
+        # the object, no traceback, the Empties where they are, other objects untouched.
+        other = U.add_cylinder(name="Other")
+        other_coords = U.raw_coords(other).copy()
+        for end in (lambda op: op.cancel(bpy.context), lambda op: op.modal(bpy.context, event('TIMER')),
+                    lambda op: op.modal(bpy.context, event('ESC', 'PRESS')),
+                    lambda op: op.modal(bpy.context, event('RET', 'PRESS'))):
+            if "Bar" not in bpy.data.objects:
+                self.obj = U.add_cylinder()
+                U.group_where(self.obj, "bottom", lambda co: co.z < -1.5)
+                U.group_where(self.obj, "top", lambda co: co.z > 1.5)
+                api.set_fixed(self.obj, "bottom")
+                api.add_handle(self.obj, "top", self.empty)
+            s = api.start_session(self.obj, bpy.context.scene)
+            op = LiveOperator(s)
+            move(self.empty, dx=0.3)
+            s.step()
+            channels = U.transform_channels(self.empty)
+            bpy.data.objects.remove(self.obj)
+            result = end(op)
+            self.assertIn(result, (None, {'CANCELLED'}))
+            self.assertEqual(op.reports, [({'ERROR'}, "Live stopped: the object 'Bar' was deleted")])
+            self.assertIsNone(sessions.any_session())
+            self.assertFalse(s.active)
+            self.assertEqual(live_ops.live_status_lines(), [])
+            self.assertEqual(U.transform_channels(self.empty), channels)
+            np.testing.assert_array_equal(U.raw_coords(other), other_coords)
+
+    def test_deleted_object_session_cancel_names_it(self):
+        s = api.start_session(self.obj, bpy.context.scene)
+        s.step()
+        bpy.data.objects.remove(self.obj)
+        with self.assertRaises(errors.SessionError) as cm:
+            s.step()
+        self.assertEqual(cm.exception.kind, 'OBJECT')
+        self.assertEqual(str(cm.exception), "Live stopped: the object 'Bar' was deleted")
+        with self.assertRaises(errors.SessionError) as cm:
+            s.cancel()
+        self.assertEqual(str(cm.exception), "Live stopped: the object 'Bar' was deleted")
+        self.assertIsNone(sessions.any_session())
+        s.cancel()     # stopped: nothing more to do
+
+    def test_deleted_empty_stops_the_operator_and_restores_the_mesh(self):
+        before = U.raw_coords(self.obj).copy()
+        s = api.start_session(self.obj, bpy.context.scene)
+        op = LiveOperator(s)
+        move(self.empty, dx=0.3)
+        s.step()
+        bpy.data.objects.remove(self.empty)
+        self.assertEqual(op.modal(bpy.context, event('TIMER')), {'CANCELLED'})
+        self.assertEqual(op.reports, [({'ERROR'}, "Live stopped: the handle Empty 'TopEmpty' was deleted "
+                                                  "(mesh restored)")])
+        np.testing.assert_array_equal(U.raw_coords(self.obj), before)
+        self.assertIsNone(sessions.any_session())
 
     def test_topology_change_stops(self):
         s = api.start_session(self.obj, bpy.context.scene)

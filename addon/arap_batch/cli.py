@@ -65,6 +65,8 @@ WORKER_EXPR = ("import sys; sys.path.insert(0, %r); "
                "from %s import batch_worker; batch_worker.main()")
 FILES_PER_SHARD = 25        # default --shards: a task's Blender start-up is paid over this many files
 MAX_SHARDS = 1000           # Slurm's default MaxArraySize is 1001
+MAX_FRAME = 1048574         # Blender's frames run from -MAX_FRAME to MAX_FRAME
+MAX_ITERATIONS = 1000000    # the solver's max_iterations limit (native/src/options.cpp)
 
 
 def default_addon_dir():
@@ -95,6 +97,75 @@ def addon_temp_files(addon_dir):
     return module
 
 
+def quoted(text):
+    """A value for a one-line message: at most 40 characters of it, quoted and escaped."""
+    return repr(text[:40]) + ("..." if len(text) > 40 else "")
+
+
+# Numbers as users write them: ASCII digits, an optional sign, no spaces; floats in decimal notation
+# (float() would also take ' 1', '1_0', 'nan', 'inf', and int() non-ASCII digits).
+WHOLE = re.compile(r"[+-]?[0-9]{1,18}", re.ASCII)
+DECIMAL = re.compile(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]{1,4})?", re.ASCII)
+
+
+def whole_number(text, low, high=None):
+    """The integer `text` spells if it lies in [low, high] (high None: no limit), else None."""
+    if not WHOLE.fullmatch(text):
+        return None
+    v = int(text)
+    return v if low <= v and (high is None or v <= high) else None
+
+
+def whole(low, high=None):
+    """An argparse type: an integer from `low` (to `high`); '-0' is 0."""
+    def parse(text):
+        v = whole_number(text, low, high)
+        if v is None:
+            limits = "of at least %d" % low if high is None else "from %d to %d" % (low, high)
+            raise argparse.ArgumentTypeError("wants a whole number %s, got %s" % (limits, quoted(text)))
+        return v
+    return parse
+
+
+def seconds(text):
+    """An argparse type: a finite positive number of seconds."""
+    v = float(text) if DECIMAL.fullmatch(text) else math.nan
+    if not (math.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError("wants a positive number of seconds, got %s" % quoted(text))
+    return v
+
+
+def frame_range(text):
+    """START:END of --bake as [START, END] (frames in Blender's range, START <= END), else None."""
+    parts = text.split(":")
+    frames = [whole_number(t, -MAX_FRAME, MAX_FRAME) for t in parts]
+    if len(parts) != 2 or None in frames or frames[0] > frames[1]:
+        return None
+    return frames
+
+
+# The options taking numbers (all their spellings): a value after them that starts with '-' and is not
+# an option of one letter is theirs ('--timeout -inf' would otherwise be "expected one argument").
+NUMERIC_OPTIONS = {"--jobs": "--jobs", "-j": "--jobs", "--frame": "--frame", "--bake": "--bake",
+                   "--iterations": "--iterations", "--timeout": "--timeout", "--shard": "--shard",
+                   "--shards": "--shards"}
+
+
+def attach_numeric_values(argv):
+    """argv with '--timeout -inf' as '--timeout=-inf' (for every option of NUMERIC_OPTIONS)."""
+    out, i = [], 0
+    while i < len(argv) and argv[i] != "--":
+        flag = NUMERIC_OPTIONS.get(argv[i])
+        value = argv[i + 1] if flag and i + 1 < len(argv) else ""
+        if value.startswith("-") and not value.startswith("--") and not re.fullmatch(r"-[A-Za-z]", value):
+            out.append("%s=%s" % (flag, argv[i + 1]))
+            i += 2
+        else:
+            out.append(argv[i])
+            i += 1
+    return out + argv[i:]
+
+
 class OneLineParser(argparse.ArgumentParser):
     """Usage errors as one line on stderr, exit status 2 (as arap-deform)."""
 
@@ -112,15 +183,16 @@ def build_parser():
                    help="also the .blend files listed in LIST, one a line (a listed file that is missing fails alone)")
     p.add_argument("--output", "-o", metavar="DIR", help="folder for the results (created if needed)")
     p.add_argument("--in-place", action="store_true", help="replace each input with its result")
-    p.add_argument("--jobs", "-j", type=int, metavar="N",
+    p.add_argument("--jobs", "-j", type=whole(1), metavar="N",
                    help="Blender worker processes (default: %d, the cores here; with --scheduler slurm: "
                         "per task, default 1)" % (os.cpu_count() or 1))
     mode = p.add_mutually_exclusive_group()
-    mode.add_argument("--frame", type=int, metavar="F", help="pose at this frame (default: each file's frame)")
+    mode.add_argument("--frame", type=whole(-MAX_FRAME, MAX_FRAME), metavar="F",
+                      help="pose at this frame (default: each file's frame)")
     mode.add_argument("--bake", metavar="START:END", help="bake this frame range instead of posing one frame")
     p.add_argument("--bake-format", choices=("shapekeys", "pc2"),
                    help="shape keys per frame, or a .pc2 next to the output (default: shapekeys)")
-    p.add_argument("--iterations", type=int, metavar="N",
+    p.add_argument("--iterations", type=whole(1, MAX_ITERATIONS), metavar="N",
                    help="Deform iterations (default: each object's setting), or per-frame maximum when baking")
     p.add_argument("--objects", nargs="+", action="extend", metavar="NAME",
                    help="only these objects (default: every mesh with ARAP settings)")
@@ -130,7 +202,7 @@ def build_parser():
     p.add_argument("--blender", metavar="PATH", help="Blender (default: %s)" % default_blender())
     p.add_argument("--addon-dir", metavar="DIR",
                    help="the arap_deform add-on folder (default: %s)" % default_addon_dir())
-    p.add_argument("--timeout", type=float, metavar="SEC", help="fail a file that takes longer than this")
+    p.add_argument("--timeout", type=seconds, metavar="SEC", help="fail a file that takes longer than this")
     p.add_argument("--shard", metavar="K/N",
                    help="only the K-th (from 0) of N slices of the sorted inputs: every N-th file from the K-th")
     p.add_argument("--rerun-failed", metavar="REPORT",
@@ -140,7 +212,7 @@ def build_parser():
     g.add_argument("--scheduler", choices=("local", "slurm"),
                    help="local: Blender workers on this machine (default); slurm: a Slurm array job whose "
                         "task K runs --shard K/N (needs --report; the job script is written beside it)")
-    g.add_argument("--shards", type=int, metavar="N",
+    g.add_argument("--shards", type=whole(1), metavar="N",
                    help="array tasks (default: one per %d files, at most %d)" % (FILES_PER_SHARD, MAX_SHARDS))
     g.add_argument("--partition", metavar="P", help="Slurm partition (sbatch --partition)")
     g.add_argument("--time", metavar="T", help="time limit of each task (sbatch --time, e.g. 1:00:00)")
@@ -153,7 +225,7 @@ def build_parser():
 
 def parse_args(argv):
     p = build_parser()
-    a = p.parse_args(argv)
+    a = p.parse_args(attach_numeric_values(argv))
     a.base_report, a.listed = None, None
     if a.rerun_failed:
         rerun_from_report(p, a)
@@ -168,18 +240,13 @@ def parse_args(argv):
         p.error("give exactly one of --output DIR and --in-place")
     if a.jobs is None:
         a.jobs = 1 if a.scheduler == "slurm" else os.cpu_count() or 1
-    if a.jobs < 1:
-        p.error("--jobs must be at least 1")
-    if a.iterations is not None and a.iterations < 1:
-        p.error("--iterations must be at least 1")
-    if a.timeout is not None and a.timeout <= 0:
-        p.error("--timeout must be positive")
+    check_numbers(p, a)
     a.bake_range = None
     if a.bake:
-        m = re.fullmatch(r"(-?\d+):(-?\d+)", a.bake)
-        if not m or int(m.group(1)) > int(m.group(2)):
-            p.error("--bake wants START:END with START <= END, e.g. 1:100 (got %r)" % a.bake)
-        a.bake_range = [int(m.group(1)), int(m.group(2))]
+        a.bake_range = frame_range(a.bake)
+        if a.bake_range is None:
+            p.error("--bake wants START:END with START <= END, whole frames from %d to %d, e.g. 1:100 (got %s)"
+                    % (-MAX_FRAME, MAX_FRAME, quoted(a.bake)))
     check_cluster_options(p, a)
     if not os.path.isfile(os.path.join(a.addon_dir, "batch_worker.py")):
         p.error("the add-on folder %s has no batch_worker.py: pass --addon-dir" % a.addon_dir)
@@ -201,12 +268,23 @@ def parse_args(argv):
     return a
 
 
+def check_numbers(p, a):
+    """The numbers --rerun-failed took from a report pass the checks of the options' own."""
+    for flag, value, ok in (("--jobs", a.jobs, lambda v: type(v) is int and v >= 1),
+                            ("--frame", a.frame, lambda v: type(v) is int and abs(v) <= MAX_FRAME),
+                            ("--iterations", a.iterations, lambda v: type(v) is int and 1 <= v <= MAX_ITERATIONS),
+                            ("--timeout", a.timeout,
+                             lambda v: type(v) in (int, float) and math.isfinite(v) and v > 0)):
+        if value is not None and not ok(value):
+            p.error("%s from %s is not valid: %s" % (flag, a.rerun_failed, quoted(str(value))))
+
+
 def check_cluster_options(p, a):
     a.shard_kn = None
     if a.shard:
-        m = re.fullmatch(r"(\d+)/(\d+)", a.shard)
+        m = re.fullmatch(r"([0-9]{1,18})/([0-9]{1,18})", a.shard, re.ASCII)
         if not m or not int(m.group(1)) < int(m.group(2)):
-            p.error("--shard wants K/N with 0 <= K < N, e.g. 0/4 for the first of four (got %r)" % a.shard)
+            p.error("--shard wants K/N with 0 <= K < N, e.g. 0/4 for the first of four (got %s)" % quoted(a.shard))
         a.shard_kn = (int(m.group(1)), int(m.group(2)))
     if a.scheduler == "slurm":
         if a.shard:
@@ -215,8 +293,6 @@ def check_cluster_options(p, a):
             p.error("--scheduler slurm needs --report FILE (the job script and the tasks' reports go beside it)")
         if not os.path.isdir(os.path.dirname(os.path.abspath(a.report))):
             p.error("the folder of --report %s does not exist" % a.report)
-        if a.shards is not None and a.shards < 1:
-            p.error("--shards must be at least 1")
         return
     given = [o for o, v in (("--shards", a.shards), ("--partition", a.partition), ("--time", a.time),
                             ("--sbatch-option", a.sbatch_option), ("--no-wait", a.no_wait)) if v]

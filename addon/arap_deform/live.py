@@ -113,7 +113,7 @@ class LiveSession:
             n = len(obj.data.vertices)
             mode = obj.mode
         except ReferenceError:
-            raise SessionError("The posed object was deleted", 'OBJECT') from None
+            raise self._object_deleted() from None
         if n != self.n_vertices:
             raise SessionError("The mesh's vertex count changed (%d -> %d): Live stopped"
                                % (self.n_vertices, n), 'TOPOLOGY')
@@ -227,6 +227,18 @@ class LiveSession:
     def _empties(self):
         return [h.empty for h in self.problem.setup.handles]
 
+    def _object_deleted(self):
+        # The name as it was at the start: a deleted object's own can no longer be read.
+        return SessionError("Live stopped: the object '%s' was deleted" % self.names[0], 'OBJECT')
+
+    def _find_object(self, objects):
+        """Take the posed object of that name in `objects` (an undo reloads it); SessionError 'OBJECT'
+        when there is none."""
+        obj = objects.get(self.names[0])
+        if obj is None or obj.type != 'MESH':
+            raise self._object_deleted()
+        self.obj = self.snapshot.obj = self.output.obj = obj
+
     def references_lost(self):
         """True when Blender replaced the objects this session holds (an undo
         reloads them): the session must find them again (reattach)."""
@@ -241,18 +253,17 @@ class LiveSession:
     def reattach(self, objects, scene=None):
         """After an undo: find the posed object and the handle Empties again by
         name in `objects` (bpy.data.objects; `scene`: the current scene) and go
-        on posing the restored handles. Raises SessionError when they are gone
-        or the mesh changed."""
-        obj_name, empty_names = self.names
+        on posing the restored handles. Raises SessionError naming the object
+        ('OBJECT') or the Empty ('EMPTY') that is gone, or when the mesh changed."""
+        empty_names = self.names[1]
         if self.scene is not None:
             self.scene = scene
-        obj = objects.get(obj_name)
+        self._find_object(objects)
         empties = [objects.get(name) for name in empty_names]
-        if obj is None or obj.type != 'MESH' or any(e is None for e in empties):
-            raise SessionError("Undo removed the posed object or a handle Empty: Live stopped", 'OBJECT')
-        self.obj = obj
-        self.snapshot.obj = obj
-        self.output.obj = obj
+        for name, empty in zip(empty_names, empties):
+            if empty is None:
+                # Cancel restores the mesh (the object is there).
+                raise SessionError("Live stopped: the handle Empty '%s' was deleted" % name, 'EMPTY')
         for handle, empty in zip(self.problem.setup.handles, empties):
             handle.empty = empty
         self._pose_key = None    # solve for the restored handles
@@ -260,11 +271,17 @@ class LiveSession:
         self.check(full=True)
 
     def cancel(self):
-        """Restore the mesh and the handle Empties exactly as they were when the session started."""
+        """Restore the mesh and the handle Empties exactly as they were when the session started.
+        When the posed object was deleted, stop without touching anything (the Empties stay where
+        they are) and raise SessionError 'OBJECT' naming it."""
         self.stop_worker()
         if self.active:
             self.active = False
             sessions.discard(self)
+            try:
+                self.obj.name
+            except ReferenceError:
+                self._find_object(bpy.data.objects)
             self.snapshot.restore()
             self.empties.restore(bpy.data.objects)
             sync_matrices()

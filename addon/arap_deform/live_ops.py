@@ -131,7 +131,10 @@ class ARAP_OT_live(bpy.types.Operator):
         _end_requests.pop(self._session, None)
         if self._session is not None and self._session.active:
             self._cleanup(context)
-            self._session.cancel()
+            try:
+                self._session.cancel()
+            except errors.SessionError as exc:   # the posed object was deleted: nothing to restore
+                self.report({'ERROR'}, str(exc))
         _live_status(False)
 
     def _cleanup(self, context):
@@ -149,6 +152,15 @@ class ARAP_OT_live(bpy.types.Operator):
 
     def _end_session(self, context, apply, error):
         self._cleanup(context)
+        try:
+            return self._end_session_as_asked(context, apply, error)
+        except errors.SessionError as exc:
+            # The posed object was deleted since the last update: Live stops, nothing is touched.
+            sessions.stop_session(self._session)
+            self.report({'ERROR'}, str(exc))
+            return {'CANCELLED'}
+
+    def _end_session_as_asked(self, context, apply, error):
         session = self._session
         name = session.names[0]
         if apply:

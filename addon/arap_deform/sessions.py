@@ -2,6 +2,8 @@
 """The registry of running Live sessions (live.LiveSession adds and removes
 itself), and which mesh the panel and the operators act on."""
 
+from .errors import SessionError
+
 _sessions = set()
 
 
@@ -67,7 +69,7 @@ def stop_all_sessions():
     for session in list(_sessions):
         try:
             session.cancel()
-        except (ReferenceError, ValueError):
+        except (ReferenceError, ValueError, SessionError):
             session.stop_worker()
             session.active = False
             _sessions.discard(session)

@@ -160,10 +160,23 @@ std::string deform_usage() {
 
 namespace {
 
+// A value for a one-line message: at most 40 characters of it, quoted, bytes outside printable ASCII as \xNN.
+std::string quoted(const std::string& text) {
+  std::string out = "'";
+  for (const char c : text.substr(0, 40)) {
+    const auto byte = static_cast<unsigned char>(c);
+    char escaped[5];
+    std::snprintf(escaped, sizeof escaped, "\\x%02x", byte);
+    out += byte >= 0x20 && byte < 0x7f ? std::string(1, c) : std::string(escaped);
+  }
+  return out + (text.size() > 40 ? "'..." : "'");
+}
+
+// A finite decimal number (io::parse_finite: no spaces, hex, NaN or Inf); -0 is 0.
 double parse_number(const std::string& flag, const std::string& s) {
   double v = 0;
-  if (!io::parse_finite(s, v)) throw UsageError(flag + " expects a finite number, got '" + s + "'");
-  return v;
+  if (!io::parse_finite(s, v)) throw UsageError(flag + " expects a finite number, got " + quoted(s));
+  return v + 0.0;
 }
 
 // The solver options on the command line: flag -> arap::option_specs() name,
@@ -182,7 +195,7 @@ const char* option_of_flag(const std::string& flag) {
 // Sets the option behind `flag` from its text, within the option's limits.
 void set_option(Options& options, const std::string& flag, const char* name, const std::string& text) {
   const OptionSpec& spec = option_spec(name);
-  auto refuse = [&] { throw UsageError(flag + " expects " + option_limits(spec) + ", got '" + text + "'"); };
+  auto refuse = [&] { throw UsageError(flag + " expects " + option_limits(spec) + ", got " + quoted(text)); };
   if (spec.kind == OptionKind::Choice) {
     bool known = false;
     for (const std::string& c : spec.choices) known = known || c == text;
@@ -195,7 +208,7 @@ void set_option(Options& options, const std::string& flag, const char* name, con
   if (spec.kind == OptionKind::Integer ? !io::parse_integer(text, integer) : !io::parse_finite(text, v)) refuse();
   if (spec.kind == OptionKind::Integer) v = static_cast<double>(integer);
   if (v < spec.min || v > spec.max) refuse();
-  spec.set_number(options, v);
+  spec.set_number(options, v + 0.0);  // -0 is 0
 }
 
 std::vector<std::string> split_commas(const std::string& s) {
@@ -209,7 +222,7 @@ std::vector<std::string> split_commas(const std::string& s) {
 
 Eigen::Vector3d parse_vector(const std::string& flag, const std::string& s) {
   const auto parts = split_commas(s);
-  if (parts.size() != 3) throw UsageError(flag + " expects DX,DY,DZ, got '" + s + "'");
+  if (parts.size() != 3) throw UsageError(flag + " expects DX,DY,DZ, got " + quoted(s));
   return {parse_number(flag, parts[0]), parse_number(flag, parts[1]), parse_number(flag, parts[2])};
 }
 
@@ -245,7 +258,7 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
       const std::string v = value();
       const auto parts = split_commas(v);
       if (parts.size() != 2 || parts[0].size() != 1 || parts[0].find_first_of("xyz") != 0)
-        throw UsageError("--rotate expects AXIS,DEGREES with AXIS x, y or z, got '" + v + "'");
+        throw UsageError("--rotate expects AXIS,DEGREES with AXIS x, y or z, got " + quoted(v));
       h.rotate_axis = parts[0][0] - 'x';
       h.rotate_degrees = parse_number(arg, parts[1]);
     } else if (const char* option = option_of_flag(arg)) {
@@ -262,9 +275,9 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
     } else if (arg == "--quiet" || arg == "-q") {
       a.quiet = true;
     } else if (arg.size() > 1 && arg[0] == '-') {
-      throw UsageError("unknown option '" + arg + "'");
+      throw UsageError("unknown option " + quoted(arg));
     } else {
-      if (!a.input.empty()) throw UsageError("more than one input mesh ('" + a.input + "', '" + arg + "')");
+      if (!a.input.empty()) throw UsageError("more than one input mesh (" + quoted(a.input) + ", " + quoted(arg) + ")");
       a.input = arg;
     }
   }
@@ -286,7 +299,7 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
   if (a.output.empty()) throw UsageError("--output is required");
   const std::string ext = io::extension_of(a.output);
   if (ext != "off" && ext != "obj" && ext != "ply")
-    throw UsageError("--output must end in .off, .obj or .ply, got '" + a.output + "'");
+    throw UsageError("--output must end in .off, .obj or .ply, got " + quoted(a.output));
   if (!a.report.empty() && a.report == a.output) throw UsageError("--report and --output name the same file");
   return a;
 }

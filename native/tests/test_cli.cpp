@@ -398,6 +398,59 @@ TEST_F(Cli, BadArgumentsExitTwo) {
   EXPECT_FALSE(fs::exists(path("out.stl")));
 }
 
+// Every numeric flag takes a finite decimal number in its range and nothing else: NaN, Inf, overflow,
+// hex (0x10, and 0x1p3, which strtod would read as 8), an empty value, spaces around it, digit
+// separators, control characters. Each refusal is exit 2 and one line naming the flag and quoting at most
+// 40 characters of the value; -0 is 0, accepted where 0 is in range.
+TEST_F(Cli, NumericFlagsTakeFiniteNumbersInRangeOnly) {
+  make_bar_files();
+  struct Flag {
+    std::string name, before, after;  // the value V is passed as before + V + after
+    bool zero_ok;
+  };
+  const std::string base = "bar.obj --fixed fixed.txt --handle handle.txt";
+  const std::vector<Flag> flags = {
+      {"--translate", base + " --translate '", ",0,0'", true},
+      {"--translate", base + " --translate '0,0,", "'", true},
+      {"--rotate", base + " --rotate 'x,", "'", true},
+      {"--iterations", base + " --translate 1,0,0 --iterations '", "'", true},
+      {"--tolerance", base + " --translate 1,0,0 --tolerance '", "'", true},
+      {"--threads", base + " --translate 1,0,0 --threads '", "'", false},
+      {"--anderson", base + " --translate 1,0,0 --method anderson --anderson '", "'", true},
+      {"--infill-resolution", base + " --translate 1,0,0 --volume infill --infill-resolution '", "'", false},
+  };
+  const std::string long_value(5000, '7');
+  const std::vector<std::string> refused = {"nan", "inf", "-inf", "1e999", "-1e999", "", "0x10", "0x1p3", " 1",
+                                            "1 ", "1\t", "1\n", "1_0", "+-1", "--1", "1e", long_value};
+  for (const Flag& f : flags) {
+    for (const std::string& v : refused) {
+      SCOPED_TRACE(f.before + v.substr(0, 50) + f.after);
+      const Result r = run(f.before + v + f.after + " -q --output out.off --report report.json");
+      EXPECT_EQ(r.code, 2) << r.err;
+      EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+      EXPECT_EQ(r.err.rfind("arap-deform: " + f.name + " expects ", 0), 0u) << r.err;
+      EXPECT_LT(r.err.size(), 200u) << r.err;
+      EXPECT_FALSE(fs::exists(path("out.off")));
+      EXPECT_FALSE(fs::exists(path("report.json")));
+    }
+    const Result r = run(f.before + "-0" + f.after + " -q --output out.obj");
+    EXPECT_EQ(r.code, f.zero_ok ? 0 : 2) << f.name << ": " << r.err;
+    if (!f.zero_ok) EXPECT_NE(r.err.find(f.name + " expects "), std::string::npos) << r.err;
+    fs::remove(path("out.obj"));
+  }
+  // What the refusals quote: 40 characters of the value at most, control characters escaped.
+  Result r = run(base + " --translate 1,0,0 --tolerance " + long_value + " --output out.off");
+  EXPECT_NE(r.err.find("got '" + std::string(40, '7') + "'..."), std::string::npos) << r.err;
+  r = run(base + " --translate 1,0,0 --iterations '1\n' --output out.off");
+  EXPECT_NE(r.err.find("got '1\\x0a'"), std::string::npos) << r.err;
+  // -0 is 0: the tolerance of the report is 0, not -0.
+  r = run(base + " --translate 1,0,0 --tolerance -0 -q --output out.obj --report report.json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const json report = json::parse(slurp(path("report.json")));
+  EXPECT_EQ(report.at("tolerance").get<double>(), 0.0);
+  EXPECT_FALSE(std::signbit(report.at("tolerance").get<double>()));
+}
+
 TEST_F(Cli, HostileMeshFilesExitTwo) {
   write("f.txt", "0");
   write("h.txt", "1");
