@@ -118,8 +118,24 @@ class DependencyLoops(unittest.TestCase):
                 self.start_auto_refused()
                 self.play()
                 self.assert_auto_stopped("'Link'", "parent 'Link' -> ")
-                self.assertIn("constraint 'Child Of' of 'Link'" if how == "constraint" else
-                              "vertex parent of 'Link'", self.obj.arap.auto_status)
+                self.assertIn("'Link' constraint 'Child Of'" if how == "constraint" else "'Link' vertex parent",
+                              self.obj.arap.auto_status)
+
+    def test_auto_stops_on_a_bone_the_empty_is_parented_to_that_follows_the_posed_object(self):
+        rig = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
+        bpy.context.scene.collection.objects.link(rig)
+        bpy.context.view_layer.objects.active = rig
+        bpy.ops.object.mode_set(mode='EDIT')
+        root = rig.data.edit_bones.new("Root")
+        root.head, root.tail = (0, 0, -2), (0, 0, 0)
+        tip = rig.data.edit_bones.new("Tip")
+        tip.head, tip.tail, tip.parent = (0, 0, 0), (0, 0, 2), root
+        bpy.ops.object.mode_set(mode='OBJECT')
+        self.empty.parent, self.empty.parent_type, self.empty.parent_bone = rig, 'BONE', "Tip"
+        constrain(rig.pose.bones["Root"], 'DAMPED_TRACK', self.obj, "top")   # the parent bone's parent
+        self.start_auto_refused()
+        self.play()
+        self.assert_auto_stopped("'Rig'", "parent bone 'Tip' of 'Rig' -> 'Rig' bone 'Root' constraint 'Damped Track'")
 
     def test_auto_stops_on_a_driver_reading_the_posed_object(self):
         fcurve = self.empty.driver_add("location", 2)
@@ -198,7 +214,7 @@ class DependencyLoops(unittest.TestCase):
         constrain(rig, 'COPY_LOCATION', other, "")
         rig.constraints[0].use_offset = True
         self.empty.parent = rig
-        bpy.context.view_layer.update()
+        constrain(self.empty, 'COPY_LOCATION', self.obj, "top").mute = True   # muted: it does nothing
         self.empty.matrix_world = Matrix.Translation((0, 0, 2.0))   # where it was bound
         bpy.context.view_layer.update()
         self.assertIsNone(dependency_loops.find(self.obj, self.obj.arap.handles))

@@ -56,13 +56,11 @@ class Loop:
 
     @property
     def how(self):
-        """'vertex parent', or the chain: "parent 'Link' -> constraint 'Copy Location' of 'Link'"."""
-        if len(self.links) == 1:
-            return self.links[0][1]
+        """'vertex parent', or the chain: "parent 'Link' -> 'Link' constraint 'Copy Location'"."""
         parts = []
         for i, (owner, how, target) in enumerate(self.links):
-            parts.append(how if i == 0 else "%s of '%s'" % (how, owner))
-            if target != self.obj_name:
+            parts.append(how if i == 0 else "'%s' %s" % (owner, how))
+            if i < len(self.links) - 1:
                 parts[-1] += " '%s'" % target
         return " -> ".join(parts)
 
@@ -79,7 +77,7 @@ def _same(a, b):
 def _constraint_links(constraints, label):
     """(how, target object, target bone or None) of each constraint that is not muted."""
     for c in constraints:
-        if getattr(c, "mute", False):
+        if not getattr(c, "enabled", not getattr(c, "mute", False)):
             continue
         how = "%sconstraint '%s'" % (label, c.name)
         target = getattr(c, "target", None)
@@ -114,7 +112,7 @@ def _links(ob, bone):
         if ob.parent_type in VERTEX_PARENTS:
             yield "vertex parent", ob.parent, None
         elif ob.parent_type == 'BONE' and ob.parent_bone:
-            yield "parent bone '%s'" % ob.parent_bone, ob.parent, ob.parent_bone
+            yield "parent bone '%s' of" % ob.parent_bone, ob.parent, ob.parent_bone
         else:
             yield "parent", ob.parent, None
     yield from _constraint_links(ob.constraints, "")
