@@ -122,15 +122,7 @@ class DependencyLoops(unittest.TestCase):
                               self.obj.arap.auto_status)
 
     def test_auto_stops_on_a_bone_the_empty_is_parented_to_that_follows_the_posed_object(self):
-        rig = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
-        bpy.context.scene.collection.objects.link(rig)
-        bpy.context.view_layer.objects.active = rig
-        bpy.ops.object.mode_set(mode='EDIT')
-        root = rig.data.edit_bones.new("Root")
-        root.head, root.tail = (0, 0, -2), (0, 0, 0)
-        tip = rig.data.edit_bones.new("Tip")
-        tip.head, tip.tail, tip.parent = (0, 0, 0), (0, 0, 2), root
-        bpy.ops.object.mode_set(mode='OBJECT')
+        rig = U.add_armature("Rig", [("Root", (0, 0, -2), (0, 0, 0), None), ("Tip", (0, 0, 0), (0, 0, 2), "Root")])
         self.empty.parent, self.empty.parent_type, self.empty.parent_bone = rig, 'BONE', "Tip"
         constrain(rig.pose.bones["Root"], 'DAMPED_TRACK', self.obj, "top")   # the parent bone's parent
         self.start_auto_refused()
