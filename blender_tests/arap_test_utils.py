@@ -185,6 +185,22 @@ def add_empty(name, matrix=None):
     return empty
 
 
+def add_armature(name, bones):
+    """An armature object with `bones`: (name, head, tail, parent name or None), made in Edit Mode; back in
+    Object Mode, active."""
+    rig = bpy.data.objects.new(name, bpy.data.armatures.new(name))
+    bpy.context.scene.collection.objects.link(rig)
+    bpy.context.view_layer.objects.active = rig
+    bpy.ops.object.mode_set(mode='EDIT')
+    for bone_name, head, tail, parent in bones:
+        bone = rig.data.edit_bones.new(bone_name)
+        bone.head, bone.tail = head, tail
+        if parent:
+            bone.parent = rig.data.edit_bones[parent]
+    bpy.ops.object.mode_set(mode='OBJECT')
+    return rig
+
+
 def triangles(obj):
     me = obj.data
     me.calc_loop_triangles()

@@ -120,13 +120,7 @@ class Auto(unittest.TestCase):
 
     def test_follows_a_posed_bone_the_empty_is_parented_to(self):
         bind = self.empty.matrix_world.copy()
-        rig = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
-        bpy.context.scene.collection.objects.link(rig)
-        bpy.context.view_layer.objects.active = rig
-        bpy.ops.object.mode_set(mode='EDIT')
-        bone = rig.data.edit_bones.new("Spine")
-        bone.head, bone.tail = (0, 0, -2), (0, 0, 0)
-        bpy.ops.object.mode_set(mode='OBJECT')
+        rig = U.add_armature("Rig", [("Spine", (0, 0, -2), (0, 0, 0), None)])
         self.empty.parent, self.empty.parent_type, self.empty.parent_bone = rig, 'BONE', "Spine"
         bpy.context.view_layer.update()
         self.empty.matrix_world = bind   # parented where it was: the rest pose is unchanged

@@ -22,7 +22,9 @@ here.
 
 An error (a deleted Empty, a changed vertex count, Edit Mode) turns Auto off for
 that object, puts its rest shape back and leaves the reason in
-obj.arap.auto_status; the handlers themselves never raise.
+obj.arap.auto_status; the handlers themselves never raise. A handle Empty that
+follows the posed mesh (dependency_loops.py), found when Auto starts or before
+any later solve, turns it off the same way but keeps the last pose written.
 """
 
 import time
@@ -33,6 +35,7 @@ import numpy as np
 from bpy.app.handlers import persistent
 
 from . import bake, errors, meshio, problem, sessions, status_overlay
+from .dependency_loops import DependencyLoop
 from .errors import SetupError
 from .native_loader import native
 
@@ -77,6 +80,8 @@ class AutoPoser:
         (False: iterations remain, call again). on_worker: solve on the
         worker's thread and show its newest pose (the viewport); else here,
         to the end (--background, renders)."""
+        # A handle Empty that follows this mesh would make each pose ask for another: stop before solving.
+        self.problem.check_loops(obj)
         # The pose key: the frame and the evaluated world matrices of the object and the Empties.
         pose = self.problem.pose(obj, depsgraph=depsgraph)
         key = (depsgraph.scene.frame_current, pose.key)
@@ -294,16 +299,21 @@ def _restore_in_edit_mode(obj, poser):
         bmesh.update_edit_mesh(obj.data)
 
 
-def stop(obj, reason=None):
-    """Turn Auto off for `obj`: rest shape back, state dropped, reason kept."""
+def stop(obj, reason=None, keep_pose=False):
+    """Turn Auto off for `obj`: rest shape back (or, with `keep_pose`, the mesh as last written: a dependency
+    loop stops Auto at its last good pose), state dropped, reason kept."""
     global _busy
     poser = _posers.pop(obj.as_pointer(), None)
+    if poser is not None:
+        poser.stop_worker()
     was_busy, _busy = _busy, True
     try:
         s = obj.arap
         if s.auto:
             s["auto"] = False   # the raw value: do not run the property's update again
-        if obj.mode == 'EDIT':
+        if keep_pose:
+            pass   # the pose stays; turning Auto on and off again removes what it created
+        elif obj.mode == 'EDIT':
             _restore_in_edit_mode(obj, poser)
         else:
             restore_rest(obj)
@@ -347,6 +357,9 @@ def update_scene(scene, depsgraph=None):
                     raise SetupError("'%s' is in Edit Mode: Auto posing stopped (the rest shape is shown); "
                                      "turn it on again after editing" % obj.name)
                 settled &= _poser(obj, scene).update(obj, depsgraph, on_worker)
+            except DependencyLoop as exc:
+                stop(obj, "%s. Auto posing stopped on '%s' (the mesh stays as it is)" % (exc, obj.name),
+                     keep_pose=True)
             except Exception as exc:  # noqa: BLE001 - a handler must never raise; the reason is kept
                 stop(obj, errors.user_error(exc) or "Auto posing stopped: %s" % exc)
     finally:

@@ -177,7 +177,9 @@ class Baker:
         return self.frames[min(self.index, len(self.frames) - 1)]
 
     def _targets(self):
-        """The targets of the frame just set: the handles as evaluated there."""
+        """The targets of the frame just set: the handles as evaluated there (DependencyLoop when a handle's
+        Empty follows the baked mesh by then: the bake refuses such a set-up at the start too)."""
+        self.problem.check_loops(self.obj)
         depsgraph = bpy.context.evaluated_depsgraph_get()
         return self.problem.targets(self.problem.pose(self.obj, self.scene, depsgraph))
 

@@ -9,7 +9,7 @@ class SetupError(Exception):
 
 
 class SessionError(Exception):
-    """A Live session cannot go on. kind: 'OBJECT', 'TOPOLOGY', 'MODE' or 'EMPTY'."""
+    """A Live session cannot go on. kind: 'OBJECT', 'TOPOLOGY', 'MODE', 'EMPTY' or 'LOOP'."""
 
     def __init__(self, message, kind):
         super().__init__(message)

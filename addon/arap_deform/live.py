@@ -15,6 +15,7 @@ import bpy
 import numpy as np
 
 from . import constraints, meshio, sessions
+from .dependency_loops import DependencyLoop
 from .errors import SessionError, SetupError
 from .native_loader import native
 from .problem import Problem, bind_warnings, configured_solver, sync_matrices
@@ -192,12 +193,17 @@ class LiveSession:
         return self.last
 
     def _read_pose(self):
-        """The handles' pose now (problem.HandlePose); SessionError 'EMPTY' when an Empty was deleted."""
+        """The handles' pose now (problem.HandlePose); SessionError 'EMPTY' when an Empty was deleted, 'LOOP'
+        when one now follows the posed mesh (dependency_loops.py: each pose would move its own handle)."""
         sync_matrices()  # scripts move empties without a depsgraph update; cheap when nothing changed
         try:
             self.problem.empties(self.scene)
         except SetupError as exc:
             raise SessionError(str(exc), 'EMPTY') from None
+        try:
+            self.problem.check_loops(self.obj)
+        except DependencyLoop as exc:
+            raise SessionError("%s: Live stopped" % exc, 'LOOP') from None
         return self.problem.pose(self.obj, self.scene)
 
     def _targets(self, pose):

@@ -10,7 +10,7 @@ import functools
 import bpy
 import numpy as np
 
-from . import constraints, meshio
+from . import constraints, dependency_loops, meshio
 from .errors import SetupError
 from .native_loader import native
 # Blender enum items -> the native module's option values (declared with the items).
@@ -73,6 +73,7 @@ class Problem:
 
     def __init__(self, obj, scene, rest32=None):
         self.setup = constraints.gather(obj, scene)
+        self.check_loops(obj)
         s = obj.arap
         self.output = meshio.resolve_output(obj, s.output)
         self.rest32 = meshio.rest_coords(obj, self.output) if rest32 is None else rest32
@@ -86,6 +87,11 @@ class Problem:
         self.stiffness = constraints.stiffness_of(obj)
         self.volume = volume_options(s)
         self.threads = s.threads  # large meshes order and factor in two halves side by side
+
+    def check_loops(self, obj):
+        """DependencyLoop (a SetupError) when a handle's Empty follows `obj`, the mesh it poses
+        (dependency_loops.py): Auto mode and Live check before each solve, everything at the bind."""
+        dependency_loops.check(obj, self.setup.handles)
 
     def empties(self, scene=None):
         """The handles' Empties; SetupError when one was deleted (or, given `scene`, is not in it)."""
