@@ -435,7 +435,9 @@ TEST_F(Cli, NumericFlagsTakeFiniteNumbersInRangeOnly) {
     }
     const Result r = run(f.before + "-0" + f.after + " -q --output out.obj");
     EXPECT_EQ(r.code, f.zero_ok ? 0 : 2) << f.name << ": " << r.err;
-    if (!f.zero_ok) EXPECT_NE(r.err.find(f.name + " expects "), std::string::npos) << r.err;
+    if (!f.zero_ok) {
+      EXPECT_NE(r.err.find(f.name + " expects "), std::string::npos) << r.err;
+    }
     fs::remove(path("out.obj"));
   }
   // What the refusals quote: 40 characters of the value at most, control characters escaped.
