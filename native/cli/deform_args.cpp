@@ -194,7 +194,8 @@ const char* option_of_flag(const std::string& flag) {
 
 // Sets the option behind `flag` from its text, within the option's limits.
 void set_option(Options& options, const std::string& flag, const char* name, const std::string& text) {
-  const OptionSpec& spec = option_spec(name);
+  const std::string key = name;  // named: the table's entry outlives it, but a temporary argument looks dangling
+  const OptionSpec& spec = option_spec(key);
   auto refuse = [&] { throw UsageError(flag + " expects " + option_limits(spec) + ", got " + quoted(text)); };
   if (spec.kind == OptionKind::Choice) {
     bool known = false;

@@ -313,7 +313,8 @@ TEST_F(Cli, HelpTakesDefaultsAndChoicesFromTheOptionTable) {
       {"--init", "init"},           {"--weights", "weights"},           {"--threads", "threads"},
       {"--anderson", "anderson_window"}, {"--volume", "volume"},        {"--infill-resolution", "infill_resolution"}};
   for (const auto& [flag, name] : flags) {
-    const arap::OptionSpec& spec = arap::option_spec(name);
+    const std::string key = name;
+    const arap::OptionSpec& spec = arap::option_spec(key);
     const std::string text = paragraph(flag);
     ASSERT_FALSE(text.empty()) << flag;
     if (spec.kind != arap::OptionKind::Choice) {
