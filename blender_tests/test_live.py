@@ -312,8 +312,28 @@ class Live(unittest.TestCase):
         with self.assertRaises(errors.SessionError) as cm:
             s.step()
         self.assertEqual(cm.exception.kind, 'TOPOLOGY')
-        with self.assertRaises(ValueError):
+        with self.assertRaises(errors.SessionError) as cm:
             s.cancel()
+        self.assertEqual(cm.exception.kind, 'TOPOLOGY')
+        self.assertIsNone(sessions.any_session())
+
+    def test_esc_after_a_vertex_count_change_reports_it_without_a_traceback(self):
+        # Vertices added between two updates (a script; Live checks the count at its next update):
+        # Esc ends Live with one message, the Empties back where they were, the mesh left as it is.
+        channels = U.transform_channels(self.empty)
+        s = api.start_session(self.obj, bpy.context.scene)
+        op = LiveOperator(s)
+        move(self.empty, dx=0.3)
+        s.step()
+        self.obj.data.vertices.add(1)
+        after = U.raw_coords(self.obj).copy()
+        self.assertEqual(op.modal(bpy.context, event('ESC', 'PRESS')), {'CANCELLED'})
+        self.assertEqual(len(op.reports), 1)
+        self.assertEqual(op.reports[0][0], {'ERROR'})
+        self.assertIn("vertex count changed", op.reports[0][1])
+        self.assertIsNone(sessions.any_session())
+        self.assertEqual(U.transform_channels(self.empty), channels)
+        np.testing.assert_array_equal(U.raw_coords(self.obj), after)
 
     def test_leaving_object_mode_stops(self):
         s = api.start_session(self.obj, bpy.context.scene)

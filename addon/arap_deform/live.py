@@ -279,7 +279,8 @@ class LiveSession:
     def cancel(self):
         """Restore the mesh and the handle Empties exactly as they were when the session started.
         When the posed object was deleted, stop without touching anything (the Empties stay where
-        they are) and raise SessionError 'OBJECT' naming it."""
+        they are) and raise SessionError 'OBJECT' naming it; when its vertex count changed, put the
+        Empties back, leave the mesh as it is and raise SessionError 'TOPOLOGY'."""
         self.stop_worker()
         if self.active:
             self.active = False
@@ -288,6 +289,12 @@ class LiveSession:
                 self.obj.name
             except ReferenceError:
                 self._find_object(bpy.data.objects)
+            n = len(self.obj.data.vertices)
+            if n != self.n_vertices:
+                self.empties.restore(bpy.data.objects)
+                sync_matrices()
+                raise SessionError("The mesh's vertex count changed (%d -> %d): Live stopped, the mesh was not "
+                                   "restored" % (self.n_vertices, n), 'TOPOLOGY')
             self.snapshot.restore()
             self.empties.restore(bpy.data.objects)
             sync_matrices()

@@ -155,7 +155,8 @@ class ARAP_OT_live(bpy.types.Operator):
         try:
             return self._end_session_as_asked(context, apply, error)
         except errors.SessionError as exc:
-            # The posed object was deleted since the last update: Live stops, nothing is touched.
+            # The posed object was deleted, or its vertex count changed, since the last update: Live
+            # stops with that message, the mesh as it is (session.cancel() says what it put back).
             sessions.stop_session(self._session)
             self.report({'ERROR'}, str(exc))
             return {'CANCELLED'}
