@@ -1,6 +1,7 @@
 # Auto mode: the pose follows the handles through Blender's handlers, like a modifier.
 import os
 import tempfile
+import threading
 import time
 import unittest
 
@@ -10,7 +11,7 @@ from mathutils import Matrix
 
 import arap_test_utils as U
 
-api, auto, bake = U.addon("api", "auto", "bake")
+api, auto, bake, problem = U.addon("api", "auto", "bake", "problem")
 SetupError = U.addon("constraints").SetupError
 
 FRAMES = range(1, 9)
@@ -60,12 +61,9 @@ class Auto(unittest.TestCase):
             bpy.context.scene.frame_set(bpy.context.scene.frame_current)
         self.assertEqual(auto.solve_count, count)
 
-    def test_in_the_viewport_the_worker_solves_and_the_pose_settles(self):
-        # In the viewport the solve runs on the worker's thread: each update shows its newest
-        # pose, the last one settled and cached; the status says settling, then settled.
-        api.set_auto(self.obj, True)
-        poser = auto._posers[self.obj.as_pointer()]
-        self.empty.location = (0.9, 0.3, 1.7)
+    def settle_on_the_worker(self, poser, check=lambda: None):
+        """Update `poser` as the viewport's timer does (the worker solves) until it has settled; `check`
+        after every unsettled update."""
         auto._busy = True   # keep the handler (which solves fully in --background) out of this update
         try:
             depsgraph = bpy.context.evaluated_depsgraph_get()
@@ -73,9 +71,17 @@ class Auto(unittest.TestCase):
             auto._busy = False
         end = time.monotonic() + 120
         while not poser.update(self.obj, depsgraph, on_worker=True):
-            self.assertTrue(poser.status().startswith("settling"))
+            check()
             self.assertLess(time.monotonic(), end, "Auto never settled")
             time.sleep(0.002)
+
+    def test_in_the_viewport_the_worker_solves_and_the_pose_settles(self):
+        # In the viewport the solve runs on the worker's thread: each update shows its newest
+        # pose, the last one settled and cached; the status says settling, then settled.
+        api.set_auto(self.obj, True)
+        poser = auto._posers[self.obj.as_pointer()]
+        self.empty.location = (0.9, 0.3, 1.7)
+        self.settle_on_the_worker(poser, lambda: self.assertTrue(poser.status().startswith("settling")))
         self.assertIsNone(poser.worker)          # settled: the solver is back on this thread
         self.assertTrue(poser.status().startswith("settled after"))
         self.assertIn("ARAP Auto on 'Bar': settled", " ".join(auto.auto_status_lines()))
@@ -84,6 +90,62 @@ class Auto(unittest.TestCase):
         api.set_auto(self.obj, False)
         api.deform(self.obj, tolerance=self.obj.arap.tolerance)
         np.testing.assert_allclose(spread, U.coords(self.obj), atol=1e-3 * scale_of(spread))
+
+    def test_in_the_viewport_the_bind_runs_on_its_own_thread(self):
+        # A file opened, an undo or Auto turned on in the viewport: Blender's thread does not wait for
+        # the bind. Here the bind is held until the test lets it go: the handler has returned, the mesh
+        # shows what it showed, the status says binding; then the pose comes.
+        self.empty.location = (0.9, 0.3, 1.7)
+        release = threading.Event()
+        bind = problem.Problem.bind
+
+        def held_bind(problem_self):
+            self.assertTrue(release.wait(60))
+            return bind(problem_self)
+
+        interactive = auto._interactive
+        problem.Problem.bind = held_bind
+        auto._interactive = lambda: True
+        try:
+            api.set_auto(self.obj, True)
+            poser = auto._posers[self.obj.as_pointer()]
+            self.assertEqual(poser.status(), "binding")
+            np.testing.assert_array_equal(U.raw_coords(self.obj), self.rest)
+            self.assertIn("binding", " ".join(auto.auto_status_lines()))
+            release.set()
+            self.settle_on_the_worker(poser)
+        finally:
+            release.set()
+            problem.Problem.bind = bind
+            auto._interactive = interactive
+        posed = U.coords(self.obj)
+        api.set_auto(self.obj, False)
+        api.deform(self.obj, tolerance=self.obj.arap.tolerance)
+        np.testing.assert_allclose(posed, U.coords(self.obj), atol=1e-3 * scale_of(posed))
+
+    def test_an_error_of_a_bind_on_its_own_thread_stops_auto_with_its_message(self):
+        release = threading.Event()
+
+        def failing_bind(_problem):
+            release.wait(60)
+            raise SetupError("no memory left for this test")
+
+        bind, interactive = problem.Problem.bind, auto._interactive
+        problem.Problem.bind = failing_bind
+        auto._interactive = lambda: True
+        try:
+            api.set_auto(self.obj, True)
+            poser = auto._posers[self.obj.as_pointer()]
+            release.set()
+            poser.binding.wait()
+            auto.update_scene(bpy.context.scene)   # the next update takes the bind's error
+        finally:
+            release.set()
+            problem.Problem.bind = bind
+            auto._interactive = interactive
+        self.assertFalse(self.obj.arap.auto)
+        self.assertIn("no memory left for this test", self.obj.arap.auto_status)
+        np.testing.assert_array_equal(U.raw_coords(self.obj), self.rest)
 
     def assert_top_follows_the_empty(self, bind):
         """The handle's vertices moved by the Empty's motion since the bind (an affine map)."""

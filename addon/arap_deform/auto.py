@@ -35,6 +35,7 @@ import numpy as np
 from bpy.app.handlers import persistent
 
 from . import bake, errors, meshio, problem, sessions, status_overlay
+from .background_bind import BackgroundBind
 from .dependency_loops import DependencyLoop
 from .errors import SetupError
 from .native_loader import native
@@ -54,9 +55,16 @@ solve_count = 0  # solve() calls made by Auto mode (tests count them to check id
 class AutoPoser:
     """One object's bound solver, its cache of solved poses and what was written."""
 
-    def __init__(self, obj, scene):
+    def __init__(self, obj, scene, on_worker=False):
         self.problem = problem.Problem(obj, scene)
-        self.solver = problem.configured_solver(self.problem, obj.arap, warm=True)
+        # In the viewport the bind runs on a thread of its own (a file just opened, an undo, Auto
+        # turned on): the mesh shows what it showed until the first pose is ready.
+        self.binding = None
+        self.solver = None
+        if on_worker:
+            self.binding = BackgroundBind(self.problem, obj.arap, warm=True)
+        else:
+            self.solver = problem.configured_solver(self.problem, obj.arap, warm=True)
         self.output = meshio.Output(obj, self.problem.output)
         self.fingerprint = problem.topology_counts(obj.data)
         self.buffer = np.empty(len(self.problem.rest32), np.float32)
@@ -82,6 +90,9 @@ class AutoPoser:
         to the end (--background, renders)."""
         # A handle Empty that follows this mesh would make each pose ask for another: stop before solving.
         self.problem.check_loops(obj)
+        if not self._bound(wait=not on_worker):
+            self._settled(False)
+            return False
         # The pose key: the frame and the evaluated world matrices of the object and the Empties.
         pose = self.problem.pose(obj, depsgraph=depsgraph)
         key = (depsgraph.scene.frame_current, pose.key)
@@ -146,6 +157,16 @@ class AutoPoser:
         self._settled(settled)
         return settled
 
+    def _bound(self, wait):
+        """True once the solver is bound: a bind on its own thread has finished (or, with `wait`, is
+        waited for: --background and renders pose the true pose). Raises the bind's error."""
+        if self.solver is None:
+            self.solver = self.binding.solver(wait)
+            if self.solver is None:
+                return False
+            self.binding = None
+        return True
+
     def stop_worker(self):
         """The solver back to this thread (the worker's solve ends after its iteration)."""
         if self.worker is not None:
@@ -159,7 +180,9 @@ class AutoPoser:
         self.settled = settled
 
     def status(self):
-        """'settling, N iterations' or 'settled after N iterations' (the last pose solved)."""
+        """'binding', 'settling, N iterations' or 'settled after N iterations' (the last pose solved)."""
+        if self.solver is None:
+            return "binding"
         if not self.settled:
             return "settling, %d iterations" % self.iterations
         return "settled after %d iterations" % self.iterations if self.iterations else "settled"
@@ -228,13 +251,13 @@ def _settings_objects(scene):
     return [ob for ob in scene.objects if ob.type == 'MESH' and ob.arap.auto]
 
 
-def _poser(obj, scene):
+def _poser(obj, scene, on_worker=False):
     uid = obj.as_pointer()
     poser = _posers.get(uid)
     if poser is not None and poser.fingerprint != problem.topology_counts(obj.data):
         raise SetupError("'%s' changed its vertices or faces: Auto posing stopped" % obj.name)
     if poser is None:
-        poser = _posers[uid] = AutoPoser(obj, scene)
+        poser = _posers[uid] = AutoPoser(obj, scene, on_worker)
         _created(obj, poser)
     return poser
 
@@ -356,7 +379,7 @@ def update_scene(scene, depsgraph=None):
                 if obj.mode == 'EDIT':
                     raise SetupError("'%s' is in Edit Mode: Auto posing stopped (the rest shape is shown); "
                                      "turn it on again after editing" % obj.name)
-                settled &= _poser(obj, scene).update(obj, depsgraph, on_worker)
+                settled &= _poser(obj, scene, on_worker).update(obj, depsgraph, on_worker)
             except DependencyLoop as exc:
                 stop(obj, "%s. Auto posing stopped on '%s' (the mesh stays as it is)" % (exc, obj.name),
                      keep_pose=True)
