@@ -5,7 +5,8 @@ This file only registers. See api.py for scripting; engine.py (Deform),
 live.py (Live), bake.py and auto.py for the jobs, problem.py for what they
 read from Blender, native_loader.py for the native bridge; solver_settings.py,
 properties.py, setup_ops.py, deform_ops.py, live_ops.py, bake_ops.py, ui.py and
-status_overlay.py for the Blender side.
+status_overlay.py for the Blender side; saving.py for what a .blend saved while
+posing holds.
 """
 
 bl_info = {
@@ -23,16 +24,16 @@ if "bpy" in locals():
     import importlib
     for _name in ("native_loader", "errors", "temp_files", "properties", "meshio", "constraints", "problem",
                   "solver_cache", "sessions", "status_overlay", "engine", "live", "anim_compat", "api", "bake", "background_bind", "auto",
-                  "setup_ops", "deform_ops", "live_ops", "ui", "bake_ops"):
+                  "setup_ops", "deform_ops", "live_ops", "ui", "bake_ops", "saving"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
 import bpy  # noqa: E402,F401 - its presence in locals() marks a reload
 
-from . import properties, setup_ops, deform_ops, live_ops, ui, bake_ops, auto, api, status_overlay  # noqa: E402
+from . import properties, setup_ops, deform_ops, live_ops, ui, bake_ops, auto, api, status_overlay, saving  # noqa: E402
 
 # Order matters: bake_ops' panel is a child of ui's ARAP_PT_main; auto adds Blender handlers.
-_modules = (properties, setup_ops, deform_ops, live_ops, ui, bake_ops, auto, status_overlay)
+_modules = (properties, setup_ops, deform_ops, live_ops, ui, bake_ops, auto, status_overlay, saving)
 
 
 def register():

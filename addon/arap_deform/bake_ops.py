@@ -89,6 +89,16 @@ class InteractiveBake:
             self.preview.write(self.baker.last_positions.ravel())
         return self.baker.done
 
+    def before_save(self):
+        """The preview is not the bake: a .blend saved now holds the mesh as it was before the bake."""
+        self.snapshot.restore()
+
+    def after_save(self):
+        """Show the preview again (the last frame solved)."""
+        self.preview.ensure()
+        if self.baker.index > 0:
+            self.preview.write(self.baker.last_positions.ravel())
+
     def _stop(self):
         self.worker.stop()
         self.snapshot.restore()

@@ -299,6 +299,12 @@ class LiveSession:
             self.empties.restore(bpy.data.objects)
             sync_matrices()
 
+    def before_save(self):
+        """A .blend saved now holds the pose on screen: with output in the mesh, store the rest shape
+        beside it (as Apply would) so that the file can go back to rest. Cancel still removes it."""
+        if self.active and self.problem.output == 'MESH' and not meshio.has_rest_attribute(self.obj.data):
+            meshio.store_rest(self.obj.data, self.problem.rest32)
+
     def finish(self):
         """Keep the current result. Raises SessionError (and stops without
         keeping anything more) when the faces changed since the last check."""

@@ -26,6 +26,11 @@ def session_for(obj):
     return None
 
 
+def running():
+    """The running Live sessions."""
+    return list(_sessions)
+
+
 def any_session():
     """Some running Live session (the panel shows it while an empty is active), or None."""
     for session in _sessions:
