@@ -9,16 +9,20 @@ parents all count -- is compared with the one last written. Nothing is solved
 when it did not change (our own writes trigger depsgraph updates too; they find
 the same key).
 
-A new key is solved to the object's tolerance, warm-started from the cached
-solution whose handles were nearest, and the result is cached: playing a range
-solves each frame once, scrubbing back to a frame writes its cached pose, and
-a frame reached by another path starts from a neighbouring solution, so it
-settles in the same pose within the tolerance (the documentation gives the
-worst difference measured). In the viewport the solves run on a native worker
+A new key is solved to the object's tolerance from a cold start (the first
+guess from the rest shape), and the result is cached: a frame's pose is a
+function of its handles alone, bit for bit the same whether the frame is played,
+scrubbed, jumped to, rendered alone, rendered in chunks by other processes or
+baked (the energy is not convex: a warm start from the previous frame could
+settle elsewhere). Playing a range solves each frame once; scrubbing back to a
+frame writes its cached pose. In the viewport the solves run on a native worker
 thread (SolveWorker) and a timer shows its newest pose until the pose has
 settled, then stops (no CPU while idle): Blender's own input never waits for a
-solve. In --background and while rendering every pose is solved to the end,
-here.
+solve. There the worker first follows the handles from the pose on screen (a
+preview while an Empty is dragged or the animation plays); once that has
+settled it solves the same handles from the cold start, shows that pose and
+caches it. In --background and while rendering every pose is solved to the end,
+here, from the cold start.
 
 An error (a deleted Empty, a changed vertex count, Edit Mode) turns Auto off for
 that object, puts its rest shape back and leaves the reason in
@@ -82,6 +86,8 @@ class AutoPoser:
         self.settled = True          # the shown pose is the settled one of the handles' current place
         self.settled_at = 0.0        # time.monotonic() when it last settled
         self.worker = None           # the SolveWorker of the viewport's solves while one runs
+        self.targets = None          # the pending pose's targets (the worker's)
+        self.final = False           # the worker solves them from the cold start (else: a preview)
 
     def update(self, obj, depsgraph, on_worker=False):
         """Bring the mesh to the current pose. Returns True when it is settled
@@ -112,24 +118,24 @@ class AutoPoser:
 
     def _solve_here(self, key, pose):
         global solve_count
-        if self.pending != key:
-            self._warm_start(key, pose.transforms)
-            self.pending, self.iterations = key, 0
+        self.solver.forget_solution()   # the pose of these handles, whatever was solved before
         targets = self.problem.targets(pose)
         self.solver.time_budget_ms = 0.0
-        self.solver.max_iterations = max(1, self.max_iterations - self.iterations)
+        self.solver.max_iterations = self.max_iterations
         stats = self.solver.solve(targets, out=self.buffer)
         solve_count += 1
-        self.iterations += stats.iterations
+        self.iterations = stats.iterations
         self.pending = None
+        self.state_key, self.current = key, [t.copy() for t in pose.transforms]
         self._write(self.buffer, key)
         self._remember(key, self.buffer.copy(), pose.transforms)
         self._settled(True)
         return True
 
     def _solve_on_worker(self, key, pose):
-        """New targets go to the worker (which goes on from its current state); its newest pose is
-        shown, and cached once it has settled."""
+        """New targets go to the worker, which follows them from its current state (a preview); once
+        that has settled, the same targets are solved from the cold start: that pose is shown and
+        cached (the pose a render gives). Until then the newest preview is shown."""
         global solve_count
         if self.pending != key:
             if self.worker is None:
@@ -138,9 +144,10 @@ class AutoPoser:
                 self.solver.max_iterations = self.max_iterations
                 self.worker = native().SolveWorker(self.solver, max_iterations=self.max_iterations)
             self.state_key, self.current = key, [t.copy() for t in pose.transforms]
-            self.worker.post(self.problem.targets(pose))
+            self.targets = self.problem.targets(pose)
+            self.worker.post(self.targets)
             solve_count += 1
-            self.pending, self.iterations = key, 0
+            self.pending, self.iterations, self.final = key, 0, False
             self._settled(False)   # a new pose, settling (the worker may have settled it by the take below)
         result = self.worker.take(self.buffer)
         if result is None:
@@ -149,13 +156,22 @@ class AutoPoser:
         self.iterations = result.iterations
         # Settled only when the worker has nothing newer in hand (result is then the pending pose's).
         settled = result.settled and self.worker.settled
-        self._write(self.buffer, key if settled else None)
-        if settled:
-            self.pending = None
-            self._remember(key, self.buffer.copy(), pose.transforms)
-            self.stop_worker()
-        self._settled(settled)
-        return settled
+        if not self.final:
+            self._write(self.buffer, None)
+            if settled:
+                self.worker.post(self.targets, restart=True)
+                self.final = True
+            self._settled(False)
+            return False
+        if not settled:
+            self._settled(False)
+            return False   # the preview stays on screen until the cold solve has settled
+        self._write(self.buffer, key)
+        self.pending = None
+        self._remember(key, self.buffer.copy(), pose.transforms)
+        self.stop_worker()
+        self._settled(True)
+        return True
 
     def _bound(self, wait):
         """True once the solver is bound: a bind on its own thread has finished (or, with `wait`, is
@@ -188,11 +204,10 @@ class AutoPoser:
         return "settled after %d iterations" % self.iterations if self.iterations else "settled"
 
     def _warm_start(self, key, transforms):
-        """Where a new pose starts from. The previous frame's settled pose when
-        there is one: played frames chain as a bake's do (the same poses, in a
-        non-convex problem where another start can settle elsewhere); else the
-        cached pose whose handles were nearest, or the solver's current state
-        when that is nearer."""
+        """Where the viewport's preview of a new pose starts from: the previous
+        frame's settled pose when there is one (playback), else the cached pose
+        whose handles were nearest, or the solver's current state when that is
+        nearer."""
         previous = self.by_frame.get(key[0] - 1)
         if previous is not None and previous in self.cache:
             if self.state_key != previous:

@@ -10,9 +10,10 @@
 
 Each frame: scene.frame_set(f), read the evaluated world matrices of the
 object and of the handle empties (keyframes, constraints and drivers all
-count), solve warm-started from the previous frame until the energy stops
-dropping (the object's tolerance, as Auto mode), keep the float32
-result. Nothing is written into the scene before every frame is solved (a .pc2
+count), solve from the cold start (the first guess from the rest shape)
+until the energy stops dropping (the object's tolerance), keep the float32
+result: each frame's pose depends on that frame alone, the same bits as Auto
+mode shows and renders give, whatever range is baked. Nothing is written into the scene before every frame is solved (a .pc2
 is streamed to a temporary file renamed at the end; the interactive bake's
 preview on the mesh is put back bit for bit first), so a cancelled bake
 changes nothing.
@@ -21,9 +22,10 @@ Rest shape: the one Deform uses (the Basis key, or the "arap_rest" attribute,
 or the mesh), ignoring a Basis key the bake itself created. It is never
 modified: the base mesh and the Basis keep their coordinates.
 
-Determinism: every bake binds a fresh solver (its results do not depend on
-the thread count, a test checks it) and clears the previous bake first, so
-baking twice stores identical coordinates.
+Determinism: every frame starts cold (its results do not depend on the
+thread count, a test checks it) and the bake clears the previous bake first,
+so baking twice, or baking a range in two parts, stores identical
+coordinates.
 
 Outputs:
 - shape keys "ARAP_f0001"...: absolute coordinates, relative to the Basis,
@@ -196,6 +198,7 @@ class Baker:
             guess[self.setup.constrained] = targets
             self.result.gradient_reference = self._gradient(guess)
         out = self._out()
+        self.solver.forget_solution()   # each frame from the cold start: the pose Auto mode and renders show
         self._record(out, self.solver.solve(targets, out=out))
         return f
 
@@ -203,7 +206,7 @@ class Baker:
         """Go to the next frame and hand its solve to `worker` (a SolveWorker of self.solver whose
         max_iterations is the solver's: one solve, the same arithmetic as step()); returns the frame."""
         f = self._begin_frame()
-        worker.post(self._targets())
+        worker.post(self._targets(), restart=True)
         return f
 
     def take_frame(self, worker):

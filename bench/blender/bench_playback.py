@@ -10,7 +10,7 @@
 #       --python bench/blender/bench_playback.py -- --viewport [same options]
 #
 # Headless, per frame (wall ms, median): the first pass solves each frame
-# (warm-started from the previous one, to the tolerance), the second replays
+# (from the cold start, to the tolerance), the second replays
 # the cached poses; then the path check: the cache dropped, the frames visited
 # in a shuffled order, and a bake of the range, against the first pass (worst
 # vertex difference / tube height). Viewport: frames per second of playback

@@ -372,6 +372,9 @@ PYBIND11_MODULE(_arap_native, m) {
           },
           py::arg("out") = py::none(), "The current solution (also the warm-start state).")
       .def(
+          "forget_solution", [](arap::Solver& s) { idle(s).forget_solution(); },
+          "The next solve starts cold, as the first after bind(): its result depends on its targets alone.")
+      .def(
           "set_positions",
           [](arap::Solver& s, const py::array& p) {
             PointsView v = view_points(p, "positions");
@@ -430,11 +433,13 @@ PYBIND11_MODULE(_arap_native, m) {
            "max_iterations: the most iterations spent on one set of targets, all solves together.")
       .def(
           "post",
-          [](arap::SolveWorker& w, const py::array& targets) {
+          [](arap::SolveWorker& w, const py::array& targets, bool restart) {
             PointsView t = view_points(targets, "targets");
-            w.post(t.map());
+            w.post(t.map(), restart);
           },
-          py::arg("targets"), "New targets (#constrained by 3); returns at once.")
+          py::arg("targets"), py::arg("restart") = false,
+          "New targets (#constrained by 3); returns at once. restart: solve them from a cold start "
+          "(the result then depends on the targets alone).")
       .def(
           "take",
           [](arap::SolveWorker& w, py::array out) -> py::object {

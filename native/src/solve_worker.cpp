@@ -29,7 +29,7 @@ SolveWorker::SolveWorker(Solver& solver, int max_iterations) : solver_(solver), 
 
 SolveWorker::~SolveWorker() { stop(); }
 
-void SolveWorker::post(const Eigen::Ref<const Points>& targets) {
+void SolveWorker::post(const Eigen::Ref<const Points>& targets, bool restart) {
   const int expected_rows = static_cast<int>(solver_.constrained().size());
   if (targets.rows() != expected_rows)
     throw Error(ErrorCode::InvalidInput, "expected " + std::to_string(expected_rows) +
@@ -40,6 +40,7 @@ void SolveWorker::post(const Eigen::Ref<const Points>& targets) {
   if (quit_) throw Error(ErrorCode::InvalidInput, "SolveWorker: post() after stop()");
   pending_ = targets;
   fresh_ = true;
+  restart_ = restart;
   solver_.set_stop_requested(true);  // the solve in progress (old targets) ends after this iteration
   wake_.notify_one();
 }
@@ -116,6 +117,7 @@ void SolveWorker::run() {
     if (fresh_) {
       targets_ = pending_;
       fresh_ = false;
+      if (restart_) solver_.forget_solution();  // the solver is idle: this thread owns it
       spent_ = 0;
     }
     working_ = true;

@@ -624,6 +624,13 @@ void Solver::set_positions(const Eigen::Ref<const Points>& positions) {
   s.qn_resumable = false;
 }
 
+void Solver::forget_solution() {
+  Impl& s = *impl_;
+  s.has_solution = false;
+  s.rotations_valid = false;
+  s.qn_resumable = false;
+}
+
 void Solver::set_stop_requested(bool stop) { shared_->stop.store(stop); }
 
 SolveProgress Solver::progress() const {

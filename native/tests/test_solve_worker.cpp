@@ -104,6 +104,34 @@ TEST(SolveWorker, ChunksOfIterationsGoOnUntilThePoseSettles) {
   EXPECT_EQ(positions, once.positions());
 }
 
+TEST(SolveWorker, ARestartedSolveInChunksGivesTheBitsOfOneColdSolve) {
+  // What the worker settles on after post(targets, restart) depends on the targets alone.
+  const BentTube t, far(2.6), near(1.3);
+  arap::Solver once, chunked;
+  arap::Options o = quasi_newton(300, 1e-8, arap::InitialGuess::WarmStart);
+  o.cold_start = arap::InitialGuess::Differential;
+  once.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+  const arap::SolveStats whole = once.solve(near.targets);
+  ASSERT_TRUE(whole.converged);
+  o.max_iterations = 3;
+  chunked.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+  arap::SolveWorker worker(chunked, 300);
+  arap::SolveWorker::Result result;
+  arap::Points positions;
+  worker.post(far.targets);
+  take_until_settled(worker, result, positions);
+  worker.post(near.targets, /*restart=*/true);
+  take_until_settled(worker, result, positions);
+  EXPECT_EQ(result.iterations, whole.iterations);
+  EXPECT_EQ(positions, once.positions());
+  // Posted without a restart, the same targets settle from the last pose: other bits.
+  worker.post(far.targets, true);
+  take_until_settled(worker, result, positions);
+  worker.post(near.targets);
+  take_until_settled(worker, result, positions);
+  EXPECT_NE(positions, once.positions());
+}
+
 TEST(SolveWorker, StopsAtItsIterationCapWhenThePoseDoesNotSettle) {
   const BentTube t;
   arap::Solver solver;

@@ -40,7 +40,9 @@ class SolveWorker {
   SolveWorker& operator=(const SolveWorker&) = delete;
 
   // targets: #constrained by 3, as Solver::solve() takes them (checked here: rows and finiteness).
-  void post(const Eigen::Ref<const Points>& targets);
+  // restart: the solve starts cold (Solver::forget_solution), so that what it settles on depends on
+  // the targets alone; else it goes on from where the last one stopped.
+  void post(const Eigen::Ref<const Points>& targets, bool restart = false);
   // When a solve finished since the last take(): fills `result`, calls `read(positions)` with the
   // solution (#V by 3, valid only during the call) and returns true. A solve that threw is
   // rethrown here, once; the worker then waits for new targets.
@@ -69,6 +71,7 @@ class SolveWorker {
   // Guarded by mutex_:
   Points pending_;             // the newest targets, not yet taken up by the worker
   bool fresh_ = false;         // pending_ holds targets the worker has not started on
+  bool restart_ = false;       // ... to be solved from a cold start
   bool working_ = false;       // the current targets have not settled yet
   bool quit_ = false;
   int spent_ = 0;              // iterations on the current targets

@@ -52,6 +52,10 @@ class Solver {
   const Points& positions() const;
   // Replace the warm-start state (e.g. to resume a bake from a stored frame).
   void set_positions(const Eigen::Ref<const Points>& positions);
+  // Forget the last solution: the next solve() starts cold (options().cold_start when its init is
+  // WarmStart), as the first one after bind() does, so its result depends on its targets and
+  // options alone, bit for bit, whatever was solved before. Solves after it resume it as usual.
+  void forget_solution();
 
   // For a solve() running on another thread (thread-safe): while set, solve() returns after the
   // iteration in progress, as when its time budget runs out (stats.converged false). solve() never
