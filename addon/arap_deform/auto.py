@@ -438,6 +438,17 @@ def _on_frame_change(scene, depsgraph=None):
 @persistent
 def _on_load(_file=None, _unused=None):
     forget()
+    if not bpy.app.background:
+        # Opening a file changes nothing Blender reports to the handlers: pose its Auto objects from the
+        # event loop once the file is in (--background: the first frame change or render does).
+        bpy.app.timers.register(_pose_opened_file, first_interval=0.0)
+
+
+def _pose_opened_file():
+    scene = getattr(bpy.context, "scene", None)
+    if scene is not None and _settings_objects(scene):
+        update_scene(scene)
+    return None
 
 
 @persistent
