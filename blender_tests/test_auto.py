@@ -3,6 +3,7 @@ import os
 import tempfile
 import threading
 import time
+import types
 import unittest
 
 import bpy
@@ -90,6 +91,50 @@ class Auto(unittest.TestCase):
         api.set_auto(self.obj, False)
         api.deform(self.obj, tolerance=self.obj.arap.tolerance)
         np.testing.assert_allclose(spread, U.coords(self.obj), atol=1e-3 * scale_of(spread))
+
+    def test_in_the_viewport_a_move_during_the_cold_solve_goes_on_from_the_pose_on_screen(self):
+        # Once the preview has settled the worker solves the pose cold, showing none of its iterates;
+        # when the Empty moves again then, the next preview starts from the pose on screen.
+        api.set_auto(self.obj, True)
+        poser = auto._posers[self.obj.as_pointer()]
+        starts = []
+        native = auto.native
+
+        def recording_worker(solver, **kwargs):
+            starts.append(solver.positions().astype(np.float32).ravel())
+            return native().SolveWorker(solver, **kwargs)
+
+        def update():
+            auto._busy = True   # the handler (which solves fully in --background) stays out
+            try:
+                depsgraph = bpy.context.evaluated_depsgraph_get()
+            finally:
+                auto._busy = False
+            return poser.update(self.obj, depsgraph, on_worker=True)
+
+        auto.native = lambda: types.SimpleNamespace(SolveWorker=recording_worker)
+        try:
+            self.empty.location = (0.9, 0.3, 1.7)
+            end = time.monotonic() + 120
+            while not poser.final:
+                self.assertFalse(update(), "settled without a cold solve")
+                self.assertLess(time.monotonic(), end)
+                time.sleep(0.001)
+            on_screen = U.raw_coords(self.obj).copy()
+            self.empty.location = (0.7, 0.3, 1.8)
+            update()
+            self.assertEqual(len(starts), 2)
+            np.testing.assert_array_equal(starts[1], on_screen)
+            while not update():
+                self.assertLess(time.monotonic(), end)
+                time.sleep(0.001)
+        finally:
+            auto.native = native
+        settled = U.raw_coords(self.obj).copy()
+        auto.forget()
+        api.set_auto(self.obj, False)
+        api.set_auto(self.obj, True)    # --background: solved here, from the cold start
+        np.testing.assert_array_equal(U.raw_coords(self.obj), settled)
 
     def test_in_the_viewport_the_bind_runs_on_its_own_thread(self):
         # A file opened, an undo or Auto turned on in the viewport: Blender's thread does not wait for

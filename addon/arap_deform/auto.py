@@ -72,6 +72,7 @@ class AutoPoser:
         self.output = meshio.Output(obj, self.problem.output)
         self.fingerprint = problem.topology_counts(obj.data)
         self.buffer = np.empty(len(self.problem.rest32), np.float32)
+        self.shown = None        # a copy of what the viewport's worker path last wrote (float32, flat)
         self.cache = {}          # pose key -> (float32 positions, handle transforms)
         self.cache_bytes = 0
         self.written = None      # pose key of the mesh's current coordinates
@@ -138,6 +139,12 @@ class AutoPoser:
         cached (the pose a render gives). Until then the newest preview is shown."""
         global solve_count
         if self.pending != key:
+            if self.worker is not None and self.final:
+                # The handles moved during the cold solve, whose iterates were never shown: the new
+                # preview goes on from the pose on screen, not from one of those.
+                self.stop_worker()
+                self.solver.set_positions(self.shown.reshape(-1, 3).astype(np.float64))
+                self.state_key = None
             if self.worker is None:
                 self._warm_start(key, pose.transforms)   # the solver is still this thread's: pick the start
                 self.solver.time_budget_ms = FRAME_BUDGET_MS
@@ -158,6 +165,9 @@ class AutoPoser:
         settled = result.settled and self.worker.settled
         if not self.final:
             self._write(self.buffer, None)
+            if self.shown is None:
+                self.shown = np.empty_like(self.buffer)
+            np.copyto(self.shown, self.buffer)
             if settled:
                 self.worker.post(self.targets, restart=True)
                 self.final = True
