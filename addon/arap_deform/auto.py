@@ -71,8 +71,8 @@ class AutoPoser:
             self.solver = problem.configured_solver(self.problem, obj.arap, warm=True)
         self.output = meshio.Output(obj, self.problem.output)
         self.fingerprint = problem.topology_counts(obj.data)
-        self.buffer = np.empty(len(self.problem.rest32), np.float32)
-        self.shown = None        # a copy of what the viewport's worker path last wrote (float32, flat)
+        self.buffer = np.empty(len(self.problem.rest32), np.float32)   # in the viewport: the preview shown
+        self.cold = None         # the viewport's cold solve is taken here (its iterates are not shown)
         self.cache = {}          # pose key -> (float32 positions, handle transforms)
         self.cache_bytes = 0
         self.written = None      # pose key of the mesh's current coordinates
@@ -143,7 +143,7 @@ class AutoPoser:
                 # The handles moved during the cold solve, whose iterates were never shown: the new
                 # preview goes on from the pose on screen, not from one of those.
                 self.stop_worker()
-                self.solver.set_positions(self.shown.reshape(-1, 3).astype(np.float64))
+                self.solver.set_positions(self.buffer.reshape(-1, 3).astype(np.float64))
                 self.state_key = None
             if self.worker is None:
                 self._warm_start(key, pose.transforms)   # the solver is still this thread's: pick the start
@@ -156,7 +156,10 @@ class AutoPoser:
             solve_count += 1
             self.pending, self.iterations, self.final = key, 0, False
             self._settled(False)   # a new pose, settling (the worker may have settled it by the take below)
-        result = self.worker.take(self.buffer)
+        if self.final and self.cold is None:
+            self.cold = np.empty_like(self.buffer)
+        out = self.cold if self.final else self.buffer
+        result = self.worker.take(out)
         if result is None:
             self._settled(False)
             return False
@@ -165,9 +168,6 @@ class AutoPoser:
         settled = result.settled and self.worker.settled
         if not self.final:
             self._write(self.buffer, None)
-            if self.shown is None:
-                self.shown = np.empty_like(self.buffer)
-            np.copyto(self.shown, self.buffer)
             if settled:
                 self.worker.post(self.targets, restart=True)
                 self.final = True
@@ -176,9 +176,9 @@ class AutoPoser:
         if not settled:
             self._settled(False)
             return False   # the preview stays on screen until the cold solve has settled
-        self._write(self.buffer, key)
+        self._write(out, key)
         self.pending = None
-        self._remember(key, self.buffer.copy(), pose.transforms)
+        self._remember(key, out.copy(), pose.transforms)
         self.stop_worker()
         self._settled(True)
         return True

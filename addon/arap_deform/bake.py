@@ -13,10 +13,10 @@ object and of the handle empties (keyframes, constraints and drivers all
 count), solve from the cold start (the first guess from the rest shape)
 until the energy stops dropping (the object's tolerance), keep the float32
 result: each frame's pose depends on that frame alone, the same bits as Auto
-mode shows and renders give, whatever range is baked. Nothing is written into the scene before every frame is solved (a .pc2
-is streamed to a temporary file renamed at the end; the interactive bake's
-preview on the mesh is put back bit for bit first), so a cancelled bake
-changes nothing.
+mode shows and renders give, whatever range is baked. Nothing is written into
+the scene before every frame is solved (a .pc2 is streamed to a temporary file
+renamed at the end; the interactive bake's preview on the mesh is put back bit
+for bit first), so a cancelled bake changes nothing.
 
 Rest shape: the one Deform uses (the Basis key, or the "arap_rest" attribute,
 or the mesh), ignoring a Basis key the bake itself created. It is never

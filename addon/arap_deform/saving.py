@@ -21,7 +21,7 @@ def _tell(runs, action):
     for run in runs:
         try:
             getattr(run, action)()
-        except (ReferenceError, ValueError, AttributeError):
+        except (ReferenceError, ValueError):
             traceback.print_exc()   # the object went away: that session or bake ends at its next update
 
 
