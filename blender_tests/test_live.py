@@ -23,7 +23,7 @@ class LiveOperator:
     Blender's event loop, which --background has not. Its reports are kept in `reports`."""
 
     def __init__(self, session):
-        self._session, self._timer, self._collapsed, self._shown = session, None, [], None
+        self._session, self._timer, self._collapsed, self._contact, self._shown = session, None, [], None, None
         self.reports = []
 
     def report(self, kind, message):

@@ -28,6 +28,7 @@ OPTION_PROPERTIES = {
     (SETTINGS, "init"): "init",
     (SETTINGS, "volume"): "volume",
     (SETTINGS, "infill_resolution"): "infill_resolution",
+    (SETTINGS, "self_contact"): "contact",
     (SETTINGS, "acceleration"): "anderson_window",
     (SETTINGS, "threads"): "threads",
     ("object.arap_deform", "iterations"): "max_iterations",
@@ -44,9 +45,10 @@ OWN = {
 }
 # Choices of the table that are no setting: "warm" (the last solution) is how Live and Auto mode start.
 NOT_OFFERED = {"init": {"warm"}}
-# Enum items -> native names, per option (the add-on's translation; every item must have one).
+# Enum items (a switch's off and on) -> native names, per option (the add-on's translation; every item must
+# have one).
 NATIVE_NAMES = {"method": problem.METHOD_NAMES, "weights": problem.WEIGHT_NAMES, "init": problem.INIT_NAMES,
-                "volume": problem.VOLUME_NAMES}
+                "volume": problem.VOLUME_NAMES, "contact": problem.CONTACT_NAMES}
 # The other properties: none is a solver option (a new property must be put in one of the two lists).
 NOT_OPTIONS = {
     SETTINGS: {"auto", "auto_status", "fixed_group", "handles", "active_handle", "stiff_group", "stiffness",
@@ -95,7 +97,8 @@ class OptionTable(unittest.TestCase):
             where = "%s.%s (%s)" % (owner, name, option)
             if "choices" in spec:
                 names = NATIVE_NAMES[option]
-                items = [item.identifier for item in prop.enum_items]
+                # A BoolProperty switches between two choices: its items are off and on.
+                items = [False, True] if prop.type == 'BOOLEAN' else [item.identifier for item in prop.enum_items]
                 self.assertEqual(sorted(names[i] for i in items),
                                  sorted(set(spec["choices"]) - NOT_OFFERED.get(option, set())), where)
                 self.assertEqual(names[prop.default], want["default"], where)

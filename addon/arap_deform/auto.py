@@ -74,6 +74,8 @@ class AutoPoser:
         self.buffer = np.empty(len(self.problem.rest32), np.float32)   # in the viewport: the preview shown
         self.cold = None         # the viewport's cold solve is taken here (its iterates are not shown)
         self.cache = {}          # pose key -> (float32 positions, handle transforms)
+        self.contacts = {}       # pose key -> problem.ContactStop, for the cached poses Self Contact stopped short
+        self.contact = None      # the ContactStop of the pose written, if it was stopped short
         self.cache_bytes = 0
         self.written = None      # pose key of the mesh's current coordinates
         self.pending = None      # pose key being solved across updates (by the worker, in the viewport)
@@ -109,6 +111,7 @@ class AutoPoser:
         if hit is not None:
             self.stop_worker()
             self.pending = None
+            self.contact = self.contacts.get(key)
             self._write(hit[0], key)
             self._settled(True)
             return True
@@ -128,6 +131,7 @@ class AutoPoser:
         self.iterations = stats.iterations
         self.pending = None
         self.state_key, self.current = key, [t.copy() for t in pose.transforms]
+        self.contact = problem.contact_stop(self.problem, stats)
         self._write(self.buffer, key)
         self._remember(key, self.buffer.copy(), pose.transforms)
         self._settled(True)
@@ -176,6 +180,8 @@ class AutoPoser:
         if not settled:
             self._settled(False)
             return False   # the preview stays on screen until the cold solve has settled
+        # Read from the pose: each of the worker's solves goes on from the last one's.
+        self.contact = problem.pose_contact_stop(self.problem, out, self.targets)
         self._write(out, key)
         self.pending = None
         self._remember(key, out.copy(), pose.transforms)
@@ -241,11 +247,16 @@ class AutoPoser:
             self.solver.set_positions(best.reshape(-1, 3).astype(np.float64))
 
     def _remember(self, key, positions, transforms):
+        """Cache a settled pose (and self.contact, its ContactStop)."""
         self.cache[key] = (positions, [t.copy() for t in transforms])
+        if self.contact is not None:
+            self.contacts[key] = self.contact
         self.by_frame[key[0]] = key
         self.cache_bytes += positions.nbytes
         while self.cache_bytes > CACHE_BYTES and len(self.cache) > 1:
-            old = self.cache.pop(next(iter(self.cache)))
+            oldest = next(iter(self.cache))
+            old = self.cache.pop(oldest)
+            self.contacts.pop(oldest, None)
             self.cache_bytes -= old[0].nbytes
 
     def _write(self, positions, key):
@@ -259,11 +270,24 @@ def status(obj):
     return poser.status() if poser is not None else ""
 
 
+def contact(obj):
+    """The problem.ContactStop of the pose Auto mode last wrote on `obj`, when Self Contact stopped it short
+    of the handles' targets (else None)."""
+    poser = _posers.get(obj.as_pointer())
+    return poser.contact if poser is not None else None
+
+
 def auto_status_lines():
-    """What the viewport shows: each Auto object settling, or settled in the last SETTLED_SHOWN_S."""
+    """What the viewport shows: each Auto object settling, or settled in the last SETTLED_SHOWN_S (and
+    whether Self Contact stopped its pose short)."""
     now = time.monotonic()
-    return ["ARAP Auto on '%s': %s" % (p.name, p.status()) for p in _posers.values()
-            if not p.settled or now - p.settled_at < SETTLED_SHOWN_S]
+    lines = []
+    for p in _posers.values():
+        if not p.settled or now - p.settled_at < SETTLED_SHOWN_S:
+            lines.append("ARAP Auto on '%s': %s" % (p.name, p.status()))
+            if p.contact is not None:
+                lines.append(p.contact.status())
+    return lines
 
 
 def _redraw_later(seconds):

@@ -91,6 +91,7 @@ class BakeResult:
         self.ms = []            # per frame: frame_set + targets + solve
         self.gradients = []     # max |dE/dp| over free vertices (measure_gradient=True)
         self.gradient_reference = None  # same, for the first frame's naive guess
+        self.warnings = []      # "Frame N: ..." for each frame Self Contact stopped short of the handles' targets
         self.bind_ms = 0.0
         self.write_ms = 0.0
         self.total_ms = 0.0
@@ -101,7 +102,7 @@ class BakeResult:
     def as_dict(self):
         return {"frames": self.frames, "energies": self.energies, "iterations": self.iterations,
                 "converged": self.converged, "ms": self.ms, "bind_ms": self.bind_ms, "write_ms": self.write_ms,
-                "total_ms": self.total_ms, "output": self.output, "path": self.path}
+                "total_ms": self.total_ms, "output": self.output, "path": self.path, "warnings": self.warnings}
 
     def __repr__(self):
         n = len(self.ms)
@@ -235,6 +236,9 @@ class Baker:
         r.energies.append(stats.energy[-1] if stats.energy else stats.initial_energy)
         r.iterations.append(stats.iterations)
         r.converged.append(stats.converged)
+        w = problem.contact_warning(self.problem, stats)
+        if w:
+            r.warnings.append("Frame %d: %s" % (self.frames[self.index], w))
         if self.measure_gradient:
             r.gradients.append(self._gradient(self.solver.positions()))
         self.index += 1

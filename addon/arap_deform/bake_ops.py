@@ -19,6 +19,7 @@ from .native_loader import native
 
 TICK_S = 1.0 / 60.0     # the modal's timer
 TICK_SLICE_MS = 8.0     # how long a tick waits for frames the worker solves (Blender's thread is held meanwhile)
+REPORTED_WARNINGS = 3   # frames whose warning the bake reports one by one (BakeResult.warnings has them all)
 REDRAWN = ('VIEW_3D', 'STATUSBAR')   # where a bake shows itself: the preview and lines, the progress bar
 
 OUTPUT_ITEMS = (
@@ -174,6 +175,11 @@ class ARAP_OT_bake(bpy.types.Operator):
         self._report(self._write(baker))
 
     def _report(self, result):
+        for w in result.warnings[:REPORTED_WARNINGS]:
+            self.report({'WARNING'}, w)
+        more = len(result.warnings) - REPORTED_WARNINGS
+        if more > 0:
+            self.report({'WARNING'}, "%d more frame(s) stopped short of the handles' targets (Self Contact)" % more)
         n = len(result.frames)
         total = "%.1f s" % (result.total_ms / 1e3) if result.total_ms >= 1e3 else "%.0f ms" % result.total_ms
         self.report({'INFO'}, "Baked %d frame(s) in %s (%.1f ms/frame, %.1f iterations/frame)"

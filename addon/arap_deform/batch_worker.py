@@ -135,7 +135,7 @@ def _pose(obj, job, scene, out_path, written):
             else:
                 r = bake.bake_shape_keys(obj, start, end, scene=scene, iterations=job.get("iterations"))
             rec.update(frames=len(r.frames), energies=r.energies, iterations=r.iterations,
-                       ms=round(r.total_ms, 2))
+                       ms=round(r.total_ms, 2), warnings=r.warnings)
         else:
             r = api.deform(obj, iterations=job.get("iterations"), scene=scene)
             rec.update(energies=r.energies, energy=r.energy, iterations=r.iterations,

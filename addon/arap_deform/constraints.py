@@ -125,6 +125,16 @@ def gather(obj, scene=None):
     return Setup(chosen.constrained, chosen.fixed_count, handles, list(chosen.warnings))
 
 
+def handle_of(setup, vertex):
+    """The HandleBlock whose vertices include `vertex` (an input index), or None (a fixed vertex, one not
+    constrained, -1)."""
+    rows = np.flatnonzero(setup.constrained == vertex)
+    for h in setup.handles:
+        if rows.size and h.start <= rows[0] < h.stop:
+            return h
+    return None
+
+
 def stiffness_of(obj):
     """Per-vertex stiffness for the solver (None when no Stiff Group is set):
     1 + (Stiffness - 1) * weight in the Stiff Group. Raises SetupError."""

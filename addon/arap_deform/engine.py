@@ -15,8 +15,8 @@ import numpy as np
 
 from . import constraints, meshio, solver_cache
 from .native_loader import native
-from .problem import (Problem, bind_warnings, collapsed_handles_warning, solver_options, sync_matrices,
-                      unconverged_warning)
+from .problem import (Problem, bind_warnings, collapsed_handles_warning, contact_warning, solver_options,
+                      sync_matrices, unconverged_warning)
 
 
 class DeformResult:
@@ -27,6 +27,8 @@ class DeformResult:
         self.energies = list(stats.energy)
         self.iterations = stats.iterations
         self.converged = stats.converged
+        # Self Contact: the share of their moves the handles made (1: at their targets; below, stopped short).
+        self.contact_reached = stats.contact_reached
         self.solve_ms = sum(stats.iteration_ms) + stats.init_ms
         self.bind_ms = bind_ms
         self.io_ms = io_ms
@@ -108,7 +110,7 @@ class DeformJob:
         out.write(self.positions)
         report = self.solver.mesh_report()
         warnings = list(problem.setup.warnings) + bind_warnings(report, problem, obj.arap)
-        for w in (collapsed_handles_warning(problem, self.pose),
+        for w in (collapsed_handles_warning(problem, self.pose), contact_warning(problem, stats),
                   unconverged_warning(stats, self.max_iterations, self.solver.tolerance, self.iterations_from)):
             if w:
                 warnings.append(w)

@@ -18,7 +18,7 @@ from . import constraints, meshio, sessions
 from .dependency_loops import DependencyLoop
 from .errors import SessionError, SetupError
 from .native_loader import native
-from .problem import Problem, bind_warnings, configured_solver, sync_matrices
+from .problem import Problem, bind_warnings, configured_solver, pose_contact_stop, sync_matrices
 
 
 class FrameStats:
@@ -82,6 +82,7 @@ class LiveSession:
         self.empties = meshio.TransformSnapshot(self._empties())
         self.names = (obj.name, [h.empty.name for h in self.problem.setup.handles])
         self.collapsed = []     # handles whose Empty is scaled to almost nothing (the operator warns)
+        self.contact = None     # problem.ContactStop: Self Contact stopped the last settled pose short
         s = obj.arap
         self.frame_ms = s.live_frame_ms
         self.solver = configured_solver(self.problem, s, iterations=iterations or s.live_iterations, warm=True,
@@ -161,6 +162,7 @@ class LiveSession:
             self.output.write(self.buffer)
         t3 = time.perf_counter()
         self.converged = stats.converged
+        self._check_contact()
         self.last = FrameStats((t1 - t0) * 1e3, (t2 - t1) * 1e3, (t3 - t2) * 1e3, _last_energy(stats),
                                stats.iterations, (t3 - t0) * 1e3)
         return self.last
@@ -188,9 +190,16 @@ class LiveSession:
         t2 = time.perf_counter()
         stats = result.stats
         self.converged = result.settled and self.worker.settled
+        self._check_contact()
         self.last = FrameStats((t1 - t0) * 1e3, sum(stats.iteration_ms) + stats.init_ms, (t2 - t1) * 1e3,
                                _last_energy(stats), result.iterations, (t2 - t0) * 1e3)
         return self.last
+
+    def _check_contact(self):
+        """Once the pose has settled: whether Self Contact stopped it short of the handles' targets (read from
+        the pose: each update's solve goes on from the last one's)."""
+        if self.converged:
+            self.contact = pose_contact_stop(self.problem, self.buffer, self.targets)
 
     def _read_pose(self):
         """The handles' pose now (problem.HandlePose); SessionError 'EMPTY' when an Empty was deleted, 'LOOP'

@@ -17,11 +17,13 @@ def live_status_lines():
         return []
     head = "ARAP Live on '%s': %s" % (session.names[0], "settled" if session.settled else "settling")
     last = session.last
-    if last is None:
-        return [head, "Enter: apply   Esc: cancel"]
-    return [head,
-            "%.1f ms per update, %d iterations, energy %.5g" % (last.main_thread_ms, last.iterations, last.energy),
-            "Enter: apply   Esc: cancel"]
+    lines = [head]
+    if last is not None:
+        lines.append("%.1f ms per update, %d iterations, energy %.5g"
+                     % (last.main_thread_ms, last.iterations, last.energy))
+    if session.contact is not None:
+        lines.append(session.contact.status())
+    return lines + ["Enter: apply   Esc: cancel"]
 
 
 def live_status_text():
@@ -54,6 +56,7 @@ class ARAP_OT_live(bpy.types.Operator):
         self._session = None
         self._timer = None
         self._collapsed = []
+        self._contact = None  # the handle Self Contact stopped, last reported
         self._shown = None    # the status last drawn: redraw when it changes
 
     def invoke(self, context, event):
@@ -111,6 +114,7 @@ class ARAP_OT_live(bpy.types.Operator):
                 changed = session.update() is not None
                 if changed:
                     self._warn_collapsed(session)
+                    self._warn_contact(session)
                 shown = live_status_text()
                 if changed or shown != self._shown:
                     self._shown = shown
@@ -125,6 +129,14 @@ class ARAP_OT_live(bpy.types.Operator):
             if session.collapsed:
                 self.report({'WARNING'}, "The Empty of handle %s is scaled to almost nothing: its vertices collapse "
                             "to a point" % ", ".join("'%s'" % n for n in session.collapsed))
+
+    def _warn_contact(self, session):
+        """Report a handle Self Contact stopped short, once each time another handle is the one stopped (the
+        viewport's lines follow the share it made)."""
+        group = session.contact.group if session.contact is not None else None
+        if session.contact is not None and group != self._contact:
+            self.report({'WARNING'}, session.contact.warning())
+        self._contact = group
 
     def cancel(self, context):
         # Blender calls this when the modal is aborted (file load, window closed).

@@ -14,19 +14,32 @@ from . import constraints, dependency_loops, meshio
 from .errors import SetupError
 from .native_loader import native
 # Blender enum items -> the native module's option values (declared with the items).
-from .solver_settings import INIT_NAMES, METHOD_NAMES, VOLUME_NAMES, WEIGHT_NAMES
+from .solver_settings import CONTACT_NAMES, INIT_NAMES, METHOD_NAMES, VOLUME_NAMES, WEIGHT_NAMES
 
 
 def volume_options(settings):
-    """The bind options of the object's Volume setting (native names)."""
-    return {"volume": VOLUME_NAMES[settings.volume], "infill_resolution": settings.infill_resolution}
+    """The bind options of the object's Volume and Self Contact settings (native names): what the solver
+    keeps besides the surface's rigidity, fixed at bind."""
+    return {"volume": VOLUME_NAMES[settings.volume], "infill_resolution": settings.infill_resolution,
+            "contact": CONTACT_NAMES[settings.self_contact]}
+
+
+def anderson_unchecked(settings):
+    """The settings Anderson's extrapolated points are not checked against, as the panel names them:
+    Volume (its terms) and Self Contact (its collision check). Empty when there is none."""
+    found = []
+    if settings.volume != 'NONE':
+        found.append("Volume %s" % settings.volume.title())
+    if settings.self_contact:
+        found.append("Self Contact")
+    return found
 
 
 def solver_method(settings):
     """The native method for the object's settings: its Method, except that Anderson's extrapolated points
-    are not checked against the volume terms, so with Volume on it falls back to Quasi-Newton
-    (method_warning() says so)."""
-    if settings.volume != 'NONE' and settings.method == 'ANDERSON':
+    are not checked against the volume terms nor the collision check of Self Contact, so with either on it
+    falls back to Quasi-Newton (method_warning() says so)."""
+    if settings.method == 'ANDERSON' and anderson_unchecked(settings):
         return METHOD_NAMES['QUASI_NEWTON']
     return METHOD_NAMES[settings.method]
 
@@ -88,6 +101,16 @@ class Problem:
         self.volume = volume_options(s)
         self.threads = s.threads  # large meshes order and factor in two halves side by side
 
+    @property
+    def self_contact(self):
+        """The surface is kept from passing through itself (Self Contact): a pose may stop short."""
+        return self.volume["contact"] != "none"
+
+    @functools.cached_property
+    def size(self):
+        """The rest shape's longest side (what "at its target" is measured against)."""
+        return float(np.ptp(self.rest64, axis=0).max())
+
     def check_loops(self, obj):
         """DependencyLoop (a SetupError) when a handle's Empty follows `obj`, the mesh it poses
         (dependency_loops.py): Auto mode and Live check before each solve, everything at the bind."""
@@ -123,8 +146,8 @@ class Problem:
         return constraints.collapsed_handles(self.setup, pose.empty_matrices)
 
     def bind(self):
-        """A new native solver bound to this problem (default options but those fixed at bind: the weights
-        and the volume terms; and the threads, which the bind uses too)."""
+        """A new native solver bound to this problem (default options but those fixed at bind: the weights,
+        the volume terms and self contact; and the threads, which the bind uses too)."""
         solver = native().Solver()
         solver.bind(self.rest64, self.tris, self.setup.constrained, weights=self.weights, stiffness=self.stiffness,
                     threads=self.threads, **self.volume)
@@ -182,14 +205,17 @@ def volume_warning(report, volume):
 
 
 def method_warning(settings):
-    if settings.volume != 'NONE' and settings.method == 'ANDERSON':
-        return "Volume %s needs Quasi-Newton or Local/Global: solved with Quasi-Newton" % settings.volume.title()
-    return None
+    """Anderson replaced by Quasi-Newton for Volume or Self Contact (solver_method())."""
+    unchecked = anderson_unchecked(settings) if settings.method == 'ANDERSON' else []
+    if not unchecked:
+        return None
+    return "%s need%s Quasi-Newton or Local/Global: solved with Quasi-Newton" % (
+        " and ".join(unchecked), "" if len(unchecked) > 1 else "s")
 
 
 def bind_warnings(report, problem, settings):
     """What a bind has to tell the user: parts without constraints, open parts Volume Global leaves alone,
-    a method replaced for the volume terms."""
+    a method replaced for the volume terms or self contact."""
     found = (unconstrained_warning(report), volume_warning(report, problem.volume), method_warning(settings))
     return [w for w in found if w]
 
@@ -220,3 +246,71 @@ def collapsed_handles_warning(problem, pose):
     return ("The Empty of handle%s %s is scaled to almost nothing: %s vertices collapse to a point"
             % ("s" if len(names) > 1 else "", ", ".join("'%s'" % n for n in names),
                "their" if len(names) > 1 else "its"))
+
+
+class ContactStop:
+    """A pose Self Contact stopped short: handle `group` (None when the solver named none) made the share
+    `reached` (< 1) of its move, as going further would make the surface pass through itself."""
+
+    def __init__(self, group, reached):
+        self.group = group
+        self.reached = reached
+
+    @property
+    def percent(self):
+        """The share made in whole percent, rounded down (a handle short of its targets never shows 100)."""
+        return min(99, max(0, int(self.reached * 100.0)))
+
+    def warning(self):
+        if self.group is None:
+            return ("The handles stopped at %d%% of their move: going further would make the surface pass "
+                    "through itself (Self Contact)" % self.percent)
+        return ("Handle '%s' stopped at %d%% of its move: going further would make the surface pass through "
+                "itself (Self Contact)" % (self.group, self.percent))
+
+    def status(self):
+        """The short form, for the viewport's lines and the panel."""
+        who = "handles" if self.group is None else "handle '%s'" % self.group
+        return "Self Contact: %s stopped at %d%%" % (who, self.percent)
+
+
+def contact_stop(problem, stats):
+    """The ContactStop of one solve from the start shape (Deform, the bake, Auto mode here), from its stats
+    (contact_reached, contact_stopped_vertex), or None when the handles reached their targets."""
+    if stats.contact_reached >= 1.0:
+        return None
+    handle = constraints.handle_of(problem.setup, stats.contact_stopped_vertex)
+    return ContactStop(handle.group if handle is not None else None, stats.contact_reached)
+
+
+def contact_warning(problem, stats):
+    """The warning for a solve Self Contact stopped short, naming the handle and the share of its move made."""
+    stop = contact_stop(problem, stats)
+    return stop.warning() if stop is not None else None
+
+
+# A handle short of its targets by more than this share of its move, and this share of the mesh's size,
+# was stopped by Self Contact (float32 coordinates are nearer than that).
+SHORT_OF_MOVE = 1e-4
+SHORT_OF_SIZE = 1e-5
+
+
+def pose_contact_stop(problem, positions, targets):
+    """The ContactStop of a settled pose read from the pose itself: `positions` (flat float32) solved for
+    `targets`; the handle that made the smallest share of its move from rest, or None when each is at its
+    targets. For solves that go on from one another (Live, Auto mode in the viewport), each of which
+    reports only how far it took the handles itself."""
+    if not problem.self_contact:
+        return None
+    at = positions.reshape(-1, 3)[problem.setup.constrained]
+    stop = None
+    for h in problem.setup.handles:
+        rows = slice(h.start, h.stop)
+        move = np.linalg.norm(targets[rows] - problem.rest_constrained[rows], axis=1)
+        short = np.linalg.norm(targets[rows] - at[rows], axis=1)
+        if short.max(initial=0.0) <= SHORT_OF_SIZE * problem.size or short.sum() <= SHORT_OF_MOVE * move.sum():
+            continue
+        reached = max(0.0, 1.0 - short.sum() / move.sum()) if move.sum() > 0 else 0.0
+        if stop is None or reached < stop.reached:
+            stop = ContactStop(h.group, reached)
+    return stop

@@ -71,8 +71,9 @@ def _auto_changed(settings, context):
         auto.stop(obj)
 
 
-def _volume_changed(settings, context):
-    """Auto mode poses with the new Volume setting at once: its solver is bound again."""
+def _bind_changed(settings, context):
+    """Auto mode poses with a new setting fixed at bind (Volume, Self Contact) at once: its solver is bound
+    again."""
     if settings.auto:
         from . import auto
         auto.forget(settings.id_data)
@@ -159,14 +160,23 @@ class ARAP_PG_settings(PropertyGroup):
         name="Volume", description="What keeps thick parts from folding flat and losing volume where they bend "
         "(surface ARAP keeps the surface rigid, not the inside). Global and Infill work with the Quasi-Newton and "
         "Local/Global methods (with Anderson, Quasi-Newton is used)",
-        update=_volume_changed,
+        update=_bind_changed,
     )
     infill_resolution: option_int(
         "infill_resolution",
         name="Infill Resolution",
         description="Lattice cubes along the longest side of the mesh: finer follows thin parts better and costs "
                     "more per round",
-        soft_max=64, update=_volume_changed,
+        soft_max=64, update=_bind_changed,
+    )
+    self_contact: BoolProperty(
+        name="Self Contact",
+        description="The surface never passes through itself: parts that are apart at rest stay at least a small "
+                    "gap apart in every pose Deform, Live, Auto and the bake make, and a handle whose move would "
+                    "make it cross stops short. Works with the Quasi-Newton and Local/Global methods (with "
+                    "Anderson, Quasi-Newton is used); costs more per solve",
+        default=False,
+        update=_bind_changed,
     )
     acceleration: option_int(
         "anderson_window",

@@ -92,3 +92,5 @@ VOLUME_ITEMS, VOLUME_NAMES = _choices(
      "infill: keeps the volume and cross-sections where it bends, on any mesh (open ones too); 1.3x to 3.4x the "
      "cost of a round"),
 )
+# Self Contact is a switch: off and on are the contact option's two choices.
+CONTACT_NAMES = {False: "none", True: "self"}

@@ -7,7 +7,7 @@ import textwrap
 
 import bpy
 
-from . import auto, sessions, solver_settings
+from . import auto, problem, sessions, solver_settings
 
 
 class ARAP_UL_handles(bpy.types.UIList):
@@ -91,6 +91,7 @@ class ARAP_PT_main(bpy.types.Panel):
         sub.prop(s, "volume")
         if s.volume == 'INFILL':
             sub.prop(s, "infill_resolution")
+        sub.prop(s, "self_contact")
 
         col = layout.column(align=True)
         col.prop(s, "auto", text="Auto (follow the handles)", toggle=True, icon='AUTO')
@@ -98,6 +99,8 @@ class ARAP_PT_main(bpy.types.Panel):
             col.label(text=s.auto_status, icon='ERROR')
         elif s.auto and auto.status(obj):
             col.label(text="Auto: " + auto.status(obj), icon='INFO')
+            if auto.contact(obj) is not None:
+                col.label(text=auto.contact(obj).status(), icon='ERROR')
         if session is None:
             col.operator("object.arap_deform", text="Deform", icon='MOD_SIMPLEDEFORM')
             col.operator("object.arap_live", text="Live", icon='PLAY')
@@ -109,6 +112,8 @@ class ARAP_PT_main(bpy.types.Panel):
             if session.last is not None:
                 state += ", %.1f ms per update" % session.last.main_thread_ms
             col.label(text="Live: " + state, icon='INFO')
+            if session.contact is not None:
+                col.label(text=session.contact.status(), icon='ERROR')
         col = layout.column(align=True)
         col.operator("object.arap_reset", text="Reset to Rest", icon='LOOP_BACK')
         col.operator("object.arap_set_rest_pose", text="Set Rest Pose", icon='ARMATURE_DATA')
@@ -145,8 +150,9 @@ class ARAP_PT_solver(SubPanel, bpy.types.Panel):
             layout.prop(s, name)
         if s.method == 'ANDERSON':
             layout.prop(s, "acceleration")
-            if s.volume != 'NONE':
-                layout.label(text="Volume %s: solved with Quasi-Newton" % s.volume.title(), icon='INFO')
+            unchecked = problem.anderson_unchecked(s)
+            if unchecked:
+                layout.label(text="%s: solved with Quasi-Newton" % " and ".join(unchecked), icon='INFO')
         layout.prop(s, "threads")
 
 

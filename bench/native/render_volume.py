@@ -46,6 +46,30 @@ def kept_volume(folder, case, mode):
     return None
 
 
+def render(scene, centre, size, tilt, colour_type, resolution, out):
+    """An orthographic picture of `scene` by the Workbench engine into `out`: looking down at `centre`, tilted
+    about x by `tilt` radians to show the thickness, `size` across; objects coloured by `colour_type`."""
+    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
+    camera.data.type = 'ORTHO'
+    camera.data.ortho_scale = 1.1 * size
+    camera.data.clip_end = 10 * size
+    camera.rotation_euler = (tilt, 0.0, 0.0)
+    camera.location = centre + 3 * size * Vector((0.0, -math.sin(tilt), math.cos(tilt)))
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.render.engine = 'BLENDER_WORKBENCH'
+    shading = scene.display.shading
+    shading.light = 'STUDIO'
+    shading.color_type = colour_type
+    shading.show_cavity = True
+    shading.show_shadows = True
+    scene.render.resolution_x, scene.render.resolution_y = resolution
+    scene.render.film_transparent = False
+    scene.world = bpy.data.worlds.new("world")
+    scene.render.filepath = os.path.abspath(out)
+    bpy.ops.render.render(write_still=True)
+
+
 def main():
     argv = sys.argv[sys.argv.index("--") + 1:]
     if len(argv) != 3:
@@ -75,26 +99,7 @@ def main():
         scene.collection.objects.link(text_obj)
     centre = Vector(((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2 - step, (lo[2] + hi[2]) / 2))
     size = max(hi[0] - lo[0], 3 * step)
-    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
-    camera.data.type = 'ORTHO'
-    camera.data.ortho_scale = 1.1 * size
-    # Looking down, tilted about x to show the thickness: x across the picture, y up it.
-    tilt = 0.4
-    camera.rotation_euler = (tilt, 0.0, 0.0)
-    camera.location = centre + 3 * size * Vector((0.0, -math.sin(tilt), math.cos(tilt)))
-    scene.collection.objects.link(camera)
-    scene.camera = camera
-    scene.render.engine = 'BLENDER_WORKBENCH'
-    shading = scene.display.shading
-    shading.light = 'STUDIO'
-    shading.color_type = 'OBJECT'
-    shading.show_cavity = True
-    shading.show_shadows = True
-    scene.render.resolution_x, scene.render.resolution_y = 800, 800
-    scene.render.film_transparent = False
-    scene.world = bpy.data.worlds.new("world")
-    scene.render.filepath = os.path.abspath(out)
-    bpy.ops.render.render(write_still=True)
+    render(scene, centre, size, 0.4, 'OBJECT', (800, 800), out)
     print("wrote", out)
 
 

@@ -133,6 +133,24 @@ def procedural_cases(build, out_dir):
     return cases
 
 
+def all_cases(build, scenarios, out):
+    """(name, factor, arap-deform inputs, rest mesh) of every case: the scenarios of the folder (bar1_x2 and
+    bar1_x3 are bar1 x2 and x3, so they are not run twice) and the procedural meshes, each times 1, 2 and 3."""
+    cases = []
+    for file in sorted(os.listdir(scenarios)):
+        if not file.endswith(".json") or file.startswith("bar1_x"):
+            continue
+        for k in FACTORS:
+            name, path, mesh = scaled_scenario(os.path.join(scenarios, file), k, out)
+            cases.append((name, k, ["--scenario", path], mesh))
+    for name, mesh, fixed, handle, translate in procedural_cases(build, out):
+        for k in FACTORS:
+            t = ",".join("%.17g" % (k * x) for x in translate)
+            cases.append(("%s_x%d" % (name, k), k, [mesh, "--fixed", fixed, "--handle", handle, "--translate", t],
+                          mesh))
+    return cases
+
+
 def measure(build, rest_mesh, posed_mesh):
     return json.loads(run([os.path.join(build, "arap-mesh-measure"), rest_mesh, posed_mesh]))
 
@@ -159,21 +177,10 @@ def main():
     os.makedirs(args.out, exist_ok=True)
     if args.table:
         with open(os.path.join(args.out, "volume.json")) as f:
-            write_table(json.load(f), args.out)
+            write_table(json.load(f), args.out, "volume", table)
         return
 
-    cases = []  # (name, factor, arap-deform inputs, rest mesh)
-    for file in sorted(os.listdir(args.scenarios)):
-        if not file.endswith(".json") or file.startswith("bar1_x"):
-            continue
-        for k in FACTORS:
-            name, path, mesh = scaled_scenario(os.path.join(args.scenarios, file), k, args.out)
-            cases.append((name, k, ["--scenario", path], mesh))
-    for name, mesh, fixed, handle, translate in procedural_cases(args.build, args.out):
-        for k in FACTORS:
-            t = ",".join("%.17g" % (k * x) for x in translate)
-            cases.append(("%s_x%d" % (name, k), k, [mesh, "--fixed", fixed, "--handle", handle, "--translate", t],
-                          mesh))
+    cases = all_cases(args.build, args.scenarios, args.out)
     if args.only:
         cases = [c for c in cases if c[0].rsplit("_x", 1)[0] in args.only]
 
@@ -194,14 +201,19 @@ def main():
             row[mode]["cpu_ms_per_iteration"] = statistics.median(cpu[mode])
         results.append(row)
         print("measured %s" % name, file=sys.stderr)
-    with open(os.path.join(args.out, "volume.json"), "w") as f:
+    save_results(results, args.out, "volume", table)
+
+
+def save_results(results, out, name, make_table):
+    """OUT/name.json (everything) and OUT/name.md (the table, also printed)."""
+    with open(os.path.join(out, name + ".json"), "w") as f:
         json.dump(results, f, indent=1)
-    write_table(results, args.out)
+    write_table(results, out, name, make_table)
 
 
-def write_table(results, out):
-    markdown = table(results)
-    with open(os.path.join(out, "volume.md"), "w") as f:
+def write_table(results, out, name, make_table):
+    markdown = make_table(results)
+    with open(os.path.join(out, name + ".md"), "w") as f:
         f.write(markdown + "\n")
     print(markdown)
 

@@ -152,6 +152,12 @@ int run(const cli::DeformArgs& args) {
     std::cerr << "arap-deform: warning: --volume global keeps the volume of " << report.volume_kept_components
               << " closed part(s); " << report.volume_open_components
               << " open part(s) are left as they are (--volume infill fills open parts too)\n";
+  if (stats.contact_reached < 1) {
+    const std::string group = group_label_of(constraints, stats.contact_stopped_vertex);
+    std::cerr << "arap-deform: warning: " << (group.empty() ? std::string("the handles") : group)
+              << " stopped at " << static_cast<int>(100 * stats.contact_reached)
+              << "% of the way: going further would make the surface pass through itself (--contact self)\n";
+  }
   if (!stats.converged && args.options.tolerance > 0)
     std::cerr << "arap-deform: stopped at the cap of " << stats.iterations
               << " iterations before the energy settled (tolerance " << args.options.tolerance

@@ -56,6 +56,9 @@ Solver options (the defaults solve until the pose has settled):
   --volume MODE         what keeps thick parts from losing volume where they bend:
 {volume list}
   --infill-resolution N lattice cells along the mesh's longest side (default {infill_resolution})
+  --contact MODE        none (default) or self: the surface never passes through
+                        itself, parts stay a gap apart (docs/contact.md);
+                        quasi-newton or local-global
   The textbook iteration of the paper, e.g. to compare energies with other
   implementations: --method local-global --iterations N --tolerance 0.
 
@@ -184,7 +187,8 @@ double parse_number(const std::string& flag, const std::string& s) {
 constexpr std::pair<const char*, const char*> kOptionFlags[] = {
     {"--method", "method"},     {"--weights", "weights"},   {"--init", "init"},
     {"--iterations", "max_iterations"}, {"--tolerance", "tolerance"}, {"--threads", "threads"},
-    {"--anderson", "anderson_window"}, {"--volume", "volume"}, {"--infill-resolution", "infill_resolution"}};
+    {"--anderson", "anderson_window"}, {"--volume", "volume"}, {"--infill-resolution", "infill_resolution"},
+    {"--contact", "contact"}};
 
 const char* option_of_flag(const std::string& flag) {
   for (const auto& [f, name] : kOptionFlags)
@@ -291,6 +295,9 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
     throw UsageError("--infill-resolution applies to --volume infill only");
   if (a.options.volume != Volume::None && a.options.method == Method::Anderson)
     throw UsageError("--volume " + to_string(a.options.volume) +
+                     " works with --method quasi-newton or local-global, not anderson");
+  if (a.options.contact != Contact::None && a.options.method == Method::Anderson)
+    throw UsageError("--contact " + to_string(a.options.contact) +
                      " works with --method quasi-newton or local-global, not anderson");
   if (a.scenario.empty() == a.input.empty()) throw UsageError("give either --scenario S.json or an INPUT mesh");
   if (!a.scenario.empty() && (!a.fixed_file.empty() || !a.handles.empty()))

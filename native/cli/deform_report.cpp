@@ -43,6 +43,13 @@ nlohmann::json make_report(const RunInfo& run, const Solver& solver, const Solve
   r["quasi_newton_resets"] = stats.quasi_newton_resets;
   r["volume_ms"] = stats.volume_ms;
   r["volume_drift"] = stats.volume_drift;
+  r["contact_ms"] = stats.contact_ms;
+  r["contact_pairs"] = stats.contact_pairs;
+  r["contact_steps_cut"] = stats.contact_steps_cut;
+  r["contact_lists"] = stats.contact_lists;
+  r["contact_rounds"] = stats.contact_rounds;
+  r["contact_reached"] = stats.contact_reached;
+  r["contact_stopped_vertex"] = stats.contact_stopped_vertex;
   r["solve_cpu_ms"] = run.solve_cpu_ms;
   r["factor_nonzeros"] = solver.factor_nonzeros();
   r["bind_mesh_ms"] = solver.bind_stats().mesh_ms;

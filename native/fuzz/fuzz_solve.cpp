@@ -70,6 +70,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // Every volume mode too (Anderson takes none: the core refuses the pair), small lattices.
   if (o.method != arap::Method::Anderson) o.volume = static_cast<arap::Volume>(o.max_iterations % 3);
   o.infill_resolution = 2 + o.max_iterations % 4;
+  // Self-contact on half the inputs that can take it (Anderson cannot).
+  if (o.method != arap::Method::Anderson && (o.max_iterations / 3) % 2 == 1) o.contact = arap::Contact::Self;
   std::vector<double> stiffness;
   if (in.ConsumeBool()) {
     stiffness.resize(n);

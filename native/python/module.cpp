@@ -232,6 +232,16 @@ PYBIND11_MODULE(_arap_native, m) {
       .def_readonly("volume_ms", &arap::SolveStats::volume_ms)
       .def_readonly("volume_drift", &arap::SolveStats::volume_drift,
                     "volume global: largest |V / V_rest - 1| of a kept part at the end")
+      .def_readonly("contact_ms", &arap::SolveStats::contact_ms)
+      .def_readonly("contact_pairs", &arap::SolveStats::contact_pairs,
+                    "contact self: pairs within the barrier's reach at the end")
+      .def_readonly("contact_steps_cut", &arap::SolveStats::contact_steps_cut)
+      .def_readonly("contact_lists", &arap::SolveStats::contact_lists)
+      .def_readonly("contact_rounds", &arap::SolveStats::contact_rounds)
+      .def_readonly("contact_reached", &arap::SolveStats::contact_reached,
+                    "contact self: the share of their moves the constrained vertices made (1: targets met)")
+      .def_readonly("contact_stopped_vertex", &arap::SolveStats::contact_stopped_vertex,
+                    "contact self: a constrained vertex of the pair that stopped the pose short, or -1")
       .def("__repr__", [](const arap::SolveStats& s) {
         return "<SolveStats iterations=" + std::to_string(s.iterations) +
                " energy=" + (s.energy.empty() ? std::to_string(s.initial_energy) : std::to_string(s.energy.back())) +

@@ -93,4 +93,14 @@ Points constraint_targets(const ConstraintSet& set, const Eigen::Ref<const Point
   return targets;
 }
 
+std::string group_label_of(const ConstraintSet& set, int vertex) {
+  const auto at = std::find(set.constrained.begin(), set.constrained.end(), vertex);
+  if (at == set.constrained.end()) return "";
+  const int slot = static_cast<int>(at - set.constrained.begin());
+  if (slot < set.fixed_count) return "the fixed vertices";
+  for (const HandleBlock& b : set.handles)
+    if (slot >= b.start && slot < b.stop) return b.label;
+  return "";
+}
+
 }  // namespace arap

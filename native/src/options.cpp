@@ -76,6 +76,20 @@ std::string to_string(Volume v) {
   return "?";
 }
 
+Contact parse_contact(const std::string& name) {
+  if (name == "none") return Contact::None;
+  if (name == "self") return Contact::Self;
+  throw Error(ErrorCode::InvalidInput, "unknown contact mode '" + name + "' (expected none or self)");
+}
+
+std::string to_string(Contact c) {
+  switch (c) {
+    case Contact::None: return "none";
+    case Contact::Self: return "self";
+  }
+  return "?";
+}
+
 namespace {
 
 // A number as users write it: 1000000 rather than 1e+06.
@@ -156,6 +170,12 @@ std::vector<OptionSpec> make_specs() {
   o.set_number = [](Options& x, double v) { x.infill_resolution = static_cast<int>(v); };
   o.needs_bind = true;
   specs.push_back(o);
+  o = option("contact", OptionKind::Choice);
+  o.choices = {"none", "self"};
+  o.get_choice = [](const Options& x) { return to_string(x.contact); };
+  o.set_choice = [](Options& x, const std::string& v) { x.contact = parse_contact(v); };
+  o.needs_bind = true;
+  specs.push_back(o);
   o = option("time_budget_ms", OptionKind::Real, 0, kUnbounded);
   o.get_number = [](const Options& x) { return x.time_budget_ms; };
   o.set_number = [](Options& x, double v) { x.time_budget_ms = v; };
@@ -203,6 +223,11 @@ void check_options(const Options& options) {
     throw Error(ErrorCode::InvalidInput, "volume " + to_string(options.volume) +
                                              " works with the quasi-newton and local-global methods, not anderson "
                                              "(its extrapolated points are not checked against the volume terms)");
+  // Anderson's extrapolated points skip the collision check that keeps the guarantee.
+  if (options.contact != Contact::None && options.method == Method::Anderson)
+    throw Error(ErrorCode::InvalidInput,
+                "contact self works with the quasi-newton and local-global methods, not anderson (its extrapolated "
+                "points skip the collision check that keeps parts of the surface from crossing)");
 }
 
 }  // namespace arap

@@ -4,12 +4,14 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <new>
 #include <string>
 
 #include "anderson.h"
 #include "bound_mesh.h"
+#include "contact/self_contact.h"
 #include "infill.h"
 #include "infill_volume.h"
 #include "initial_guess.h"
@@ -93,9 +95,36 @@ void require_bind_memory(Eigen::Index vertices, double bytes_per_vertex, const c
                    "binding " + std::to_string(vertices) + " vertices (" + part + ")");
 }
 
+// The barrier's kappa: the mean of sum_j w_ij over the mesh's vertices, so that
+// the barrier weighs like the springs around a vertex.
+double contact_stiffness(const BoundMesh& m) {
+  double sum = 0;
+  for (int v = 0; v < m.input_n; ++v)
+    for (int k = m.spoke_begin[v]; k < m.spoke_begin[v + 1]; ++k) sum += m.spokes[k].w;
+  return m.input_n > 0 && sum > 0 ? sum / m.input_n : 1.0;
+}
+
 // Volume::Global: halvings of a plain step whose return onto the volume
 // constraint raised the energy (the step itself lowers it to first order).
 constexpr int kVolumeBacktracks = 30;
+
+// Contact::Self (contact/self_contact.h). A trial point that a pair would reach
+// is cut back to this share of the safe part of the step (the collision check
+// is conservative already; the margin keeps the next step from starting at the gap).
+constexpr double kContactBackoff = 0.9;
+// Handles whose targets the first guess cannot reach without a crossing move
+// in rounds of at most kContactLoadStep of their move (the rest of the mesh
+// carried harmonically), each checked on the way and followed by
+// kContactRelaxIterations; at most kContactMaxRounds rounds, stopped short
+// after kContactStallRounds rounds in a row that gain less than
+// kContactStallGain of the move.
+constexpr int kContactMaxRounds = 200;
+constexpr double kContactLoadStep = 0.125;
+constexpr int kContactRelaxIterations = 10;
+constexpr int kContactStallRounds = 8;
+constexpr double kContactStallGain = 1e-3;
+// Steps cut at a contact that lower the energy by at most the tolerance, in a row: the pose has settled.
+constexpr int kContactSettledSteps = 3;
 
 }  // namespace
 
@@ -142,6 +171,21 @@ struct Solver::Impl {
   // Volume::Infill's bulk term (see infill_volume.h), on the same path.
   LatticeBulk bulk;
   bool qn_history = true;
+  // Contact::Self: the barrier and collision checks; contact_from is the state
+  // the trial points are reached from (qn_x's, all rows); contact_clear: the
+  // state is one a step may start from (a solve left it so).
+  contact::SelfContact contact;
+  Contact bound_contact = Contact::None;
+  Points contact_from, contact_goal;
+  bool contact_clear = false;
+  double contact_fraction = 1;  // the safe share of the last trial's step (1: the trial was not cut)
+  // Rounds toward the same targets that gained almost nothing, counted across
+  // solves (a viewport's chunks), and how far the last solve's handles came.
+  Points contact_round_targets;
+  int contact_stalled_rounds = 0;
+  double contact_reached = 1;
+  int contact_stopped_vertex = -1;
+  int contact_settling = 0;  // iterations in a row whose step was cut and lowered the energy by at most the tolerance
 
   void gather_free(std::vector<double>& out) const {
     for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
@@ -182,6 +226,10 @@ struct Solver::Impl {
     const auto t = Clock::now();
     half_gradient(mesh, state.data(), rotations.data(), qn_g.data(), options.threads);
     if (bulk.active()) bulk.add_half_gradient(state.data(), qn_g.data());
+    if (contact.active()) {
+      contact.add_half_gradient(mesh.free_row, qn_g.data());  // the pairs of the local() that came before
+      contact_from = state;
+    }
     stats.direction_ms += ms_since(t);
     if (volume.active()) {
       volume_normal(stats);
@@ -238,7 +286,24 @@ struct Solver::Impl {
       stats.volume_ms += ms_since(t);
       if (!on_constraint) return std::numeric_limits<double>::infinity();
     }
-    return local(stats);
+    if (!contact.active()) return local(stats);
+    // Reached from qn_x in a straight line only if no watched pair comes within the gap on the way.
+    const auto t = Clock::now();
+    const contact::SelfContact::Step step = contact.evaluate(contact_from.data(), state.data());
+    stats.contact_ms += ms_since(t);
+    contact_fraction = step.fraction;
+    if (step.fraction < 1) {
+      ++stats.contact_steps_cut;
+      return std::numeric_limits<double>::infinity();
+    }
+    return local_without_contact(stats) + step.energy;
+  }
+
+  // The next, shorter trial step after `alpha` failed: cut to the safe share
+  // when a pair stopped it, else `fallback`.
+  double shorter_step(double alpha, double fallback) const {
+    if (contact.active() && contact_fraction < 1) return kContactBackoff * contact_fraction * alpha;
+    return fallback;
   }
 
   // The L-BFGS direction from qn_x with the Laplacian as H0 into qn_d, or the
@@ -284,7 +349,7 @@ struct Solver::Impl {
       // Minimum of the parabola through E(0), E'(0) and E(alpha), kept in [alpha / 10, alpha / 2].
       const double curvature = next - energy - slope * alpha;
       const double shorter = curvature > 0 ? -slope * alpha * alpha / (2 * curvature) : 0.5 * alpha;
-      alpha = std::clamp(shorter, 0.1 * alpha, 0.5 * alpha);
+      alpha = shorter_step(alpha, std::clamp(shorter, 0.1 * alpha, 0.5 * alpha));
       ++stats.line_search_steps;
       next = trial(alpha, stats);
     }
@@ -297,8 +362,9 @@ struct Solver::Impl {
     }
     // The plain step lowers the energy on the tangent plane; its return onto the
     // volume constraint is of second order in the step: a shorter step always does.
-    for (int k = 0; volume.active() && k < kVolumeBacktracks && !(next <= energy); ++k) {
-      alpha *= 0.5;
+    // With contact, the global step does not see the barrier: a shorter step does too.
+    for (int k = 0; (volume.active() || contact.active()) && k < kVolumeBacktracks && !(next <= energy); ++k) {
+      alpha = shorter_step(alpha, 0.5 * alpha);
       ++stats.line_search_steps;
       next = trial(alpha, stats);
     }
@@ -315,6 +381,10 @@ struct Solver::Impl {
     double* y = lbfgs.next_y();
     half_gradient(mesh, state.data(), rotations.data(), y, options.threads);
     if (bulk.active()) bulk.add_half_gradient(state.data(), y);
+    if (contact.active()) {
+      contact.add_half_gradient(mesh.free_row, y);  // the pairs of the accepted trial
+      contact_from = state;
+    }
     if (volume.active()) {
       // The step returned onto the constraint: s is where it landed, y the change of the Lagrangian gradient.
       stats.direction_ms += ms_since(t);
@@ -348,6 +418,11 @@ struct Solver::Impl {
     for (int s = 0; s < mesh.user_constrained; ++s) P.row(mesh.constrained[s]) = targets.row(s);
     for (size_t s = mesh.user_constrained; s < mesh.constrained.size(); ++s)
       P.row(mesh.constrained[s]) = mesh.rest.row(mesh.constrained[s]);
+    couple(P);
+  }
+
+  // sum_j w_ij p_j over the constrained neighbours j of each free vertex, into `coupled`.
+  void couple(const Points& P) {
     std::fill(coupled.begin(), coupled.end(), 0.0);
     for (const Coupling& c : mesh.couplings) {
       const int v = mesh.constrained[c.constrained_slot];
@@ -372,6 +447,142 @@ struct Solver::Impl {
     }
   }
 
+  // Contact::Self: makes the first guess in `state` (targets applied) reachable
+  // from the clear state contact_from. When a pair stands in the straight way,
+  // the handles move in rounds: as far as is safe, then the pose relaxes
+  // around them, then the rest of their move is carried through the mesh
+  // harmonically (L_ff d_f = L_fc-coupled d_c) and tried again. Returns false
+  // when the handles stopped short (stalled, or out of time / stopped: then
+  // `interrupted`); the state is clear either way and `coupled` matches it.
+  bool reach_first_guess(bool warm, SolveStats& stats, const std::function<bool()>& out_of_time,
+                         bool& interrupted) {
+    interrupted = false;
+    if (warm) {
+      // From the last pose: the handles' move carried through the mesh, checked on the way
+      // (the global step's move would ignore the barrier).
+      state = contact_from;
+      carry_targets_through(1.0, stats);
+      if (volume.active()) project_volume(stats);
+      const auto t = Clock::now();
+      const double fraction = contact.evaluate(contact_from.data(), state.data()).fraction;
+      stats.contact_ms += ms_since(t);
+      if (fraction >= 1) return true;
+    } else if (clear(stats)) {
+      // A first guess that crosses nothing and keeps every pair beyond the gap is
+      // a start: how it was made is not a motion anyone sees.
+      return true;
+    }
+    // Else (a cold start) the targets carried through the mesh from the rest
+    // shape, and when that crosses too, the handles go there in steps, each
+    // checked on the way and followed by a few iterations that let the pose
+    // settle around the contacts (a quasi-static loading). A warm start takes
+    // the steps at once: its poses are shown, so every move between them is checked.
+    if (!warm) {
+      state = contact_from;
+      carry_targets_through(1.0, stats);
+      if (volume.active()) project_volume(stats);
+      if (clear(stats)) return true;
+    }
+    state = contact_from;
+    couple(state);
+    double remaining = 1;  // the share of the constrained vertices' move still to make
+    int& stalled = contact_stalled_rounds;
+    for (int round = 0; round < kContactMaxRounds; ++round) {
+      ++stats.contact_rounds;
+      const double share = std::min(1.0, kContactLoadStep / remaining);
+      contact_from = state;
+      carry_targets_through(share, stats);
+      if (volume.active()) project_volume(stats);
+      contact_goal = state;
+      auto t = Clock::now();
+      const contact::SelfContact::Step step = contact.evaluate(contact_from.data(), contact_goal.data());
+      stats.contact_ms += ms_since(t);
+      const double made = step.fraction >= 1 ? share : kContactBackoff * step.fraction * share;
+      if (step.fraction < 1)
+        state = contact_from + kContactBackoff * step.fraction * (contact_goal - contact_from);
+      remaining *= 1 - made;
+      if (step.fraction >= 1 && share >= 1) {
+        apply_targets(targets, state);
+        stats.contact_reached = 1;
+        stats.contact_stopped_vertex = -1;
+        return true;
+      }
+      stats.contact_reached = 1 - remaining;
+      if (step.fraction < 1) stats.contact_stopped_vertex = stopping_vertex(step);
+      stalled = made < kContactStallGain ? stalled + 1 : 0;
+      couple(state);
+      if (stalled >= kContactStallRounds) return false;
+      interrupted = out_of_time();
+      if (interrupted) return false;
+      relax(kContactRelaxIterations, stats, out_of_time);
+    }
+    return false;
+  }
+
+  bool clear(SolveStats& stats) {
+    const auto t = Clock::now();
+    const bool is = contact.is_clear(state.data());
+    stats.contact_ms += ms_since(t);
+    return is;
+  }
+
+  // The input index of a user-constrained vertex still short of its target:
+  // one of the pair that stopped a step if it has one, else the nearest to that pair.
+  int stopping_vertex(const contact::SelfContact::Step& step) const {
+    int best = -1;
+    double nearest = std::numeric_limits<double>::infinity();
+    for (int slot = 0; slot < mesh.user_constrained; ++slot) {
+      const int v = mesh.constrained[slot];
+      if (state.row(v) == targets.row(slot)) continue;
+      for (int b : step.blocking) {
+        if (b < 0) continue;
+        const double d = b == v ? -1 : (mesh.rest.row(v) - mesh.rest.row(b)).squaredNorm();
+        if (d < nearest) nearest = d, best = v;
+      }
+    }
+    return best < 0 ? -1 : mesh.order[best];
+  }
+
+  // A few quasi-Newton iterations with the constrained vertices where they are.
+  void relax(int iterations, SolveStats& stats, const std::function<bool()>& out_of_time) {
+    double e = local(stats);
+    start_quasi_newton(stats);
+    double slope = quasi_newton_direction(stats);
+    for (int k = 0; k < iterations && !out_of_time(); ++k) {
+      bool stuck = false;
+      const double next = quasi_newton_step(e, slope, stuck, stats);
+      if (stuck) break;
+      slope = quasi_newton_direction(stats);
+      e = next;
+    }
+  }
+
+  // The user's constrained vertices moved `share` of the way to their targets,
+  // the free ones by the harmonic extension of that move: L_ff d_f = sum_c w_fc d_c.
+  void carry_targets_through(double share, SolveStats& stats) {
+    const auto t = Clock::now();
+    std::fill(rhs.begin(), rhs.end(), 0.0);
+    for (const Coupling& c : mesh.couplings) {
+      if (c.constrained_slot >= mesh.user_constrained) continue;
+      const int v = mesh.constrained[c.constrained_slot];
+      for (int d = 0; d < 3; ++d)
+        rhs[3 * c.free_row + d] += c.w * share * (targets(c.constrained_slot, d) - state(v, d));
+    }
+    laplacian.solve_in_place(rhs.data(), work, options.threads);
+    for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
+      for (int d = 0; d < 3; ++d) state(mesh.free_vertices[r], d) += rhs[3 * r + d];
+    if (share >= 1) {
+      apply_targets(targets, state);
+    } else {
+      for (int slot = 0; slot < mesh.user_constrained; ++slot) {
+        const int v = mesh.constrained[slot];
+        state.row(v) += share * (targets.row(slot) - state.row(v));
+      }
+      couple(state);
+    }
+    stats.linear_solve_ms += ms_since(t);
+  }
+
   // Global step: L_ff p_f = b_f(R) + coupled.
   void global_step(SolveStats& stats) {
     auto t = Clock::now();
@@ -384,7 +595,18 @@ struct Solver::Impl {
     stats.linear_solve_ms += ms_since(t);
   }
 
+  // The energy at the current state (the contact barrier's too), its rotations left for the next gradient.
   double local(SolveStats& stats) {
+    double e = local_without_contact(stats);
+    if (contact.active()) {
+      const auto t = Clock::now();
+      e += contact.energy(state.data());
+      stats.contact_ms += ms_since(t);
+    }
+    return e;
+  }
+
+  double local_without_contact(SolveStats& stats) {
     const auto t = Clock::now();
     double e = local_step(mesh, state.data(), rotations.data(), cell_energy.data(), options.threads,
                           &stats.rotation_fallbacks, eigenvalues.data());
@@ -461,6 +683,12 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
     assign_prefaulted(next->rhs, 3 * nf, 0.0);
     assign_prefaulted(next->work, 3 * nf, 0.0);
     if (options.volume == Volume::Infill) next->bulk.bind(next->mesh, infill, kInfillBulk);
+    next->bound_contact = options.contact;
+    if (options.contact == Contact::Self) {
+      next->contact.bind(next->mesh.rest, next->triangles, contact_stiffness(next->mesh));
+      next->contact_from = next->mesh.rest;
+      next->contact_goal = next->mesh.rest;
+    }
     if (options.volume == Volume::Global) {
       next->volume.bind(next->mesh, next->triangles);
       next->mesh.report.volume_kept_components = next->volume.kept_components();
@@ -493,6 +721,9 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
   if (s.options.volume != s.bound_volume || s.options.infill_resolution != s.bound_infill_resolution)
     throw Error(ErrorCode::InvalidInput, "the volume mode changed since bind(): bind again to use volume " +
                                              to_string(s.options.volume));
+  if (s.options.contact != s.bound_contact)
+    throw Error(ErrorCode::InvalidInput, "the contact mode changed since bind(): bind again to use contact " +
+                                             to_string(s.options.contact));
   if (targets.rows() != s.mesh.user_constrained)
     throw Error(ErrorCode::InvalidInput, "expected " + std::to_string(s.mesh.user_constrained) +
                                              " target positions (one per constrained vertex), got " +
@@ -509,6 +740,8 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
   stats.energy.reserve(s.options.max_iterations);
   stats.iteration_ms.reserve(s.options.max_iterations);
   s.state_backup = s.state;  // same size every solve: no allocation; restored if anything below goes wrong
+  bool contact_interrupted = false;
+  const long contact_lists_before = s.contact.lists_made();
   try {
     const auto solve_start = Clock::now();
     auto t = solve_start;
@@ -520,27 +753,57 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
         guess == InitialGuess::WarmStart && s.rotations_valid && s.options.max_iterations > 0;
     // A cold start forgets every hint of the last solve: same input, same output bit for bit.
     if (guess != InitialGuess::WarmStart) std::fill(s.eigenvalues.begin(), s.eigenvalues.end(), 0.0);
+    if (s.contact.active() && !(s.contact_round_targets.rows() == s.targets.rows() &&
+                                s.contact_round_targets == s.targets)) {
+      s.contact_round_targets = s.targets;
+      s.contact_stalled_rounds = 0;
+    }
+    if (s.contact.active()) {
+      // Steps start from a clear state: the last solution, or the rest shape for a cold start
+      // (which must not depend on what came before) and after set_positions() left a crossing.
+      const bool warm = guess == InitialGuess::WarmStart;
+      if (warm && !s.contact_clear) s.contact_clear = s.contact.is_clear(s.state.data());
+      if (warm && s.contact_clear) s.contact_from = s.state;
+      else s.contact_from = s.mesh.rest;
+      s.contact_clear = false;  // until this solve ends well
+    }
     s.apply_targets(s.targets, s.state);
     s.first_guess(guess);
     stats.init_ms = ms_since(t);
     shared_->iterations.store(0, std::memory_order_relaxed);
 
     // Volume::Global runs on the quasi-Newton path (local/global: without its history), see volume.h.
-    const bool quasi_newton = s.options.method == Method::QuasiNewton ||
-                              ((s.volume.active() || s.bulk.active()) && s.options.method == Method::LocalGlobal);
+    const bool quasi_newton =
+        s.options.method == Method::QuasiNewton ||
+        ((s.volume.active() || s.bulk.active() || s.contact.active()) && s.options.method == Method::LocalGlobal);
+    const auto out_of_time = [&] {
+      return (s.options.time_budget_ms > 0 && ms_since(solve_start) >= s.options.time_budget_ms) ||
+             shared_->stop.load(std::memory_order_relaxed);
+    };
+
     s.qn_history = s.options.method == Method::QuasiNewton;
     double previous_energy = std::numeric_limits<double>::quiet_NaN();
     const bool resume = quasi_newton && guess == InitialGuess::WarmStart && s.qn_resumable &&
                         s.last_targets.rows() == targets.rows() && s.last_targets == targets;
     s.qn_resumable = false;  // until this solve ends well
+    if (!resume) s.contact_settling = 0;
     if (resume) {
+      if (s.contact.active()) {
+        // Where the last solve stopped the handles short of these targets, they stay.
+        s.state = s.contact_from;
+        s.couple(s.state);
+      }
       previous_energy = stats.initial_energy = s.qn_energy;
+      stats.contact_reached = s.contact_reached;  // the handles stand where the solve resumed stopped them
+      stats.contact_stopped_vertex = s.contact_stopped_vertex;
     } else if (quasi_newton) {
       // It starts from a point with known energy and gradient. A warm start first
       // carries the moved targets through the mesh with one global step on the
       // last rotations (as the plain iteration's first step does).
-      if (reuse_rotations) s.global_step(stats);
+      if (reuse_rotations && !s.contact.active()) s.global_step(stats);
       if (s.volume.active()) s.project_volume(stats);
+      if (s.contact.active())
+        s.reach_first_guess(guess == InitialGuess::WarmStart, stats, out_of_time, contact_interrupted);
       previous_energy = stats.initial_energy = s.local(stats);
       s.start_quasi_newton(stats);
       s.qn_slope = s.quasi_newton_direction(stats);
@@ -561,6 +824,7 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       double e;
       if (quasi_newton) {
         bool stuck = false;
+        const long cut_before = stats.contact_steps_cut;
         e = s.quasi_newton_step(previous_energy, s.qn_slope, stuck, stats);
         // The next direction now, so that the stop can look at it: settled when this
         // step lowered the energy by at most the tolerance and the next one is
@@ -569,6 +833,11 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
         s.qn_slope = s.quasi_newton_direction(stats);
         const bool small_step = previous_energy - e <= tolerance * std::abs(previous_energy);
         stats.converged = stuck || (small_step && -0.5 * s.qn_slope <= tolerance * std::abs(e));
+        // Pressed against a contact, the direction keeps pointing into it (the
+        // Laplacian does not know the barrier's stiffness) and every step is cut:
+        // settled once such steps lower the energy by at most the tolerance a few times in a row.
+        s.contact_settling = stats.contact_steps_cut > cut_before && small_step ? s.contact_settling + 1 : 0;
+        stats.converged = stats.converged || s.contact_settling >= kContactSettledSteps;
       } else {
         e = s.iterate(previous_energy, stats);
         stats.converged = std::isfinite(previous_energy) && previous_energy - e <= tolerance * std::abs(previous_energy);
@@ -598,8 +867,18 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
   to_input(s.mesh, s.state, s.positions);
   if (s.unit != 1.0) s.positions *= s.unit;
   s.has_solution = true;
-  if (s.options.method == Method::QuasiNewton ||
-      ((s.volume.active() || s.bulk.active()) && s.options.method == Method::LocalGlobal)) {
+  s.contact_clear = s.contact.active();
+  if (contact_interrupted) stats.converged = false;  // the handles are still on their way
+  s.contact_reached = stats.contact_reached;
+  s.contact_stopped_vertex = stats.contact_stopped_vertex;
+  if (s.contact.active()) {
+    stats.contact_pairs = s.contact.active_pairs();
+    stats.contact_lists = s.contact.lists_made() - contact_lists_before;
+  }
+  // A solve whose handles were still on their way when time ran out starts the way again.
+  if (!contact_interrupted &&
+      (s.options.method == Method::QuasiNewton ||
+       ((s.volume.active() || s.bulk.active() || s.contact.active()) && s.options.method == Method::LocalGlobal))) {
     s.qn_resumable = true;
     s.qn_energy = stats.energy.empty() ? stats.initial_energy : stats.energy.back();
     s.last_targets = targets;
@@ -622,6 +901,7 @@ void Solver::set_positions(const Eigen::Ref<const Points>& positions) {
   s.has_solution = true;
   s.rotations_valid = false;
   s.qn_resumable = false;
+  s.contact_clear = false;  // checked at the next solve
 }
 
 void Solver::forget_solution() {
@@ -683,6 +963,7 @@ double Solver::energy(const Eigen::Ref<const Points>& positions) const {
   std::vector<Eigen::Matrix3d> R;
   double e = evaluate(s.mesh, s.unit, positions, s.options.threads, "energy()", s.state, P, R);
   if (s.bulk.active()) e += s.bulk.energy(P.data());
+  if (s.contact.active()) e += contact::SelfContact(s.contact).energy(P.data());
   return energy_to_user_units(e, s.unit);
 }
 
@@ -695,6 +976,11 @@ Points Solver::energy_gradient(const Eigen::Ref<const Points>& positions) const 
   Points gradient(s.mesh.n, 3), gradient_input;
   arap::energy_gradient(s.mesh, P.data(), R.data(), gradient.data());
   if (s.bulk.active()) s.bulk.add_gradient(P.data(), gradient.data());
+  if (s.contact.active()) {
+    contact::SelfContact c(s.contact);
+    c.energy(P.data());
+    c.add_gradient(gradient.data());
+  }
   to_input(s.mesh, gradient, gradient_input);
   gradient_input *= s.unit;  // E = unit^2 E(p / unit): dE/dp = unit dE_internal
   if (!gradient_input.allFinite())

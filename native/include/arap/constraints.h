@@ -46,6 +46,10 @@ struct ConstraintSet {
 ConstraintSet make_constraint_set(int vertex_count, const ConstraintGroup& fixed,
                                   const std::vector<ConstraintGroup>& handles);
 
+// How messages name the group that holds `vertex` (an input index): its
+// label, "the fixed group ..." or "handle ...", or "" when no group holds it.
+std::string group_label_of(const ConstraintSet& set, int vertex);
+
 // One target per constrained vertex, in set.constrained's order: the rest
 // position of a fixed vertex, handle_transforms[h] (a 4x4 affine map, one per
 // input handle) applied to the rest position of a vertex of handle h. Throws

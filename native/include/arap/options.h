@@ -39,6 +39,12 @@ enum class Volume {
   Infill,  // a coarse lattice filling the interior, posed as-rigid-as-possible with the surface bound to it
 };
 
+// What keeps the surface from passing through itself (see docs/contact.md).
+enum class Contact {
+  None,  // nothing: parts of the surface may cross
+  Self,  // a barrier on near pairs and collision detection on every step: no two parts apart at rest ever cross
+};
+
 struct Options {
   Method method = Method::QuasiNewton;
   Weights weights = Weights::CotanClamped;
@@ -61,6 +67,8 @@ struct Options {
   Volume volume = Volume::None;
   // Volume::Infill: lattice cells along the longest side of the mesh's bounding box (2..256).
   int infill_resolution = 10;
+  // Needs a bind. Contact::Self works with the quasi-Newton and local/global methods.
+  Contact contact = Contact::None;
 };
 
 // One option as users name and set it. A new option is a field of Options
@@ -105,5 +113,7 @@ std::string to_string(Weights w);
 std::string to_string(InitialGuess g);
 Volume parse_volume(const std::string& name);
 std::string to_string(Volume v);
+Contact parse_contact(const std::string& name);
+std::string to_string(Contact c);
 
 }  // namespace arap

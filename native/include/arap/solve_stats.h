@@ -23,6 +23,16 @@ struct SolveStats {
   long quasi_newton_resets = 0;       // quasi-Newton: directions refused (history dropped, plain step taken)
   double volume_ms = 0;               // Volume::Global: volume gradients and returns onto the constraint
   double volume_drift = 0;            // Volume::Global: largest |V / V_rest - 1| of a kept component at the end
+  double contact_ms = 0;              // Contact::Self: pair search, barrier and collision checks
+  long contact_pairs = 0;             // Contact::Self: pairs within the barrier's reach at the end
+  long contact_lists = 0;             // Contact::Self: times the list of near pairs was made (a search of the mesh)
+  long contact_steps_cut = 0;         // Contact::Self: trial points refused because a pair would come too close
+  int contact_rounds = 0;             // Contact::Self: rounds that moved the handles part of the way (0: none needed)
+  // Contact::Self: the share of their moves the constrained vertices made (1 = their targets are met). Below 1
+  // when reaching the targets would make the surface cross itself: the pose stops short at contact, and
+  // contact_stopped_vertex is a constrained vertex (input index) of the pair that stopped it.
+  double contact_reached = 1;
+  int contact_stopped_vertex = -1;
 };
 
 // How far the solve() in progress has come (Solver::progress(), readable from another thread).

@@ -33,12 +33,22 @@ bool same_sign_or_zero(double x, double y, double z) {
   return (x >= 0 && y >= 0 && z >= 0) || (x <= 0 && y <= 0 && z <= 0);
 }
 
-// Segment pq crosses triangle abc (not in its plane).
+// An orientation within rounding of zero is zero: 1e-12 of the product of
+// the lengths it is made of (below that, the sign is the rounding's).
+double rounded(double orientation, double scale) { return std::abs(orientation) <= 1e-12 * scale ? 0.0 : orientation; }
+
+// Segment pq crosses triangle abc (not in its plane). Near-coplanar pairs,
+// whose orientations are rounding noise, count as coplanar (not crossing).
 bool segment_crosses(const Eigen::Vector3d& p, const Eigen::Vector3d& q, const Eigen::Vector3d& a,
                      const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  const double dp = orient(a, b, c, p), dq = orient(a, b, c, q);
+  const double area = (b - a).cross(c - a).norm();
+  const double dp = rounded(orient(a, b, c, p), area * (p - a).norm());
+  const double dq = rounded(orient(a, b, c, q), area * (q - a).norm());
   if ((dp > 0 && dq > 0) || (dp < 0 && dq < 0) || (dp == 0 && dq == 0)) return false;
-  const double s1 = orient(p, q, a, b), s2 = orient(p, q, b, c), s3 = orient(p, q, c, a);
+  const double pq = (q - p).norm();
+  const double s1 = rounded(orient(p, q, a, b), pq * (a - p).norm() * (b - p).norm());
+  const double s2 = rounded(orient(p, q, b, c), pq * (b - p).norm() * (c - p).norm());
+  const double s3 = rounded(orient(p, q, c, a), pq * (c - p).norm() * (a - p).norm());
   if (s1 == 0 && s2 == 0 && s3 == 0) return false;
   return same_sign_or_zero(s1, s2, s3);
 }

@@ -90,6 +90,21 @@ class Options(unittest.TestCase):
         with self.assertRaises(arap.ArapError):   # Anderson's extrapolation ignores the volume terms
             solver.configure(method="anderson")
 
+    def test_self_contact_is_fixed_at_bind_and_reports_how_far_the_handles_came(self):
+        rest, tris = strip()
+        solver = arap.Solver()
+        solver.bind(rest, tris, np.array([0, 11]), contact="self")
+        self.assertEqual(solver.contact, "self")
+        with self.assertRaises(arap.ArapError):
+            solver.configure(contact="none")
+        with self.assertRaises(arap.ArapError):   # Anderson's extrapolation skips the collision checks
+            solver.configure(method="anderson")
+        targets = rest[[0, 11]] + np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.3]])
+        stats = solver.solve(targets)
+        self.assertEqual(stats.contact_reached, 1.0)
+        self.assertEqual(stats.contact_stopped_vertex, -1)
+        self.assertTrue(np.all(np.isfinite(solver.positions())))
+
 
 class Solve(unittest.TestCase):
     def test_handles_reach_their_targets_and_the_energy_never_rises(self):

@@ -1,0 +1,512 @@
+#include "contact/self_contact.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#include "contact/ccd.h"
+#include "contact/primitives.h"
+
+namespace arap::contact {
+
+namespace {
+
+constexpr int kLeafSize = 4;
+// The pairs near enough to matter are listed with a margin (in mean edge
+// lengths; a Verlet list): the list holds while no vertex has moved more than
+// half the margin since it was made. A step longer than that is checked in
+// pieces, at most kMostPieces (beyond, the pieces are longer and the list is
+// made for each).
+constexpr double kMarginShare = 0.5;
+constexpr int kMostPieces = 256;
+
+std::uint64_t key(int a, int b) { return (static_cast<std::uint64_t>(a) << 32) | static_cast<std::uint32_t>(b); }
+std::uint64_t sorted_key(int a, int b) { return a < b ? key(a, b) : key(b, a); }
+
+Vec3 row(const double* P, int v) { return Vec3(P[3 * v], P[3 * v + 1], P[3 * v + 2]); }
+
+bool share_vertex(const int* f, const int* g) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (f[i] == g[j]) return true;
+  return false;
+}
+
+void sort_unique(std::vector<std::uint64_t>& keys) {
+  std::sort(keys.begin(), keys.end());
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+}
+
+}  // namespace
+
+bool SelfContact::excluded(const std::vector<std::uint64_t>& sorted, std::uint64_t k) const {
+  return !sorted.empty() && std::binary_search(sorted.begin(), sorted.end(), k);
+}
+
+template <class B>
+static bool overlap(const B& a, const B& b) {
+  for (int c = 0; c < 3; ++c)
+    if (a.hi[c] < b.lo[c] || b.hi[c] < a.lo[c]) return false;
+  return true;
+}
+
+template <class B>
+static double extent(const B& b) {
+  return (b.hi[0] - b.lo[0]) + (b.hi[1] - b.lo[1]) + (b.hi[2] - b.lo[2]);
+}
+
+template <class B>
+static void grow(B& into, const B& b) {
+  for (int c = 0; c < 3; ++c) into.lo[c] = std::min(into.lo[c], b.lo[c]), into.hi[c] = std::max(into.hi[c], b.hi[c]);
+}
+
+double SelfContact::barrier(double d) const {
+  if (d >= activation_) return 0;
+  if (!(d > 0)) return std::numeric_limits<double>::infinity();
+  const double e = d - activation_;
+  return -e * e * std::log(d / activation_);
+}
+
+double SelfContact::barrier_slope(double d) const {
+  if (d >= activation_) return 0;
+  const double e = d - activation_;
+  return -2 * e * std::log(d / activation_) - e * e / d;
+}
+
+void SelfContact::bind(const Points& rest, const Triangles& triangles, double stiffness) {
+  *this = SelfContact();
+  if (triangles.rows() < 2) return;
+  // Edges, each once, and each triangle's three.
+  std::vector<std::uint64_t> edge_keys;
+  edge_keys.reserve(3 * triangles.rows());
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f)
+    for (int k = 0; k < 3; ++k) edge_keys.push_back(sorted_key(triangles(f, k), triangles(f, (k + 1) % 3)));
+  sort_unique(edge_keys);
+  double length = 0;
+  for (std::uint64_t e : edge_keys) {
+    const int a = static_cast<int>(e >> 32), b = static_cast<int>(e & 0xffffffffu);
+    edges_.push_back(a), edges_.push_back(b);
+    length += (rest.row(a) - rest.row(b)).norm();
+  }
+  length /= static_cast<double>(edge_keys.size());
+  if (!(length > 0) || !std::isfinite(length)) {
+    edges_.clear();
+    return;
+  }
+  triangles_ = triangles;
+  triangle_edges_.resize(3 * triangles.rows());
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const std::uint64_t e = sorted_key(triangles(f, k), triangles(f, (k + 1) % 3));
+      triangle_edges_[3 * f + k] = static_cast<int>(std::lower_bound(edge_keys.begin(), edge_keys.end(), e) -
+                                                    edge_keys.begin());
+    }
+  first_triangle_of_vertex_.assign(rest.rows(), -1);
+  first_triangle_of_edge_.assign(edge_keys.size(), -1);
+  for (int f = static_cast<int>(triangles.rows()) - 1; f >= 0; --f)
+    for (int k = 0; k < 3; ++k) {
+      first_triangle_of_vertex_[triangles(f, k)] = f;
+      first_triangle_of_edge_[triangle_edges_[3 * f + k]] = f;
+    }
+  std::vector<char> on_surface(rest.rows(), 0);
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f)
+    for (int k = 0; k < 3; ++k) on_surface[triangles(f, k)] = 1;
+  for (Eigen::Index v = 0; v < rest.rows(); ++v)
+    if (on_surface[v]) surface_vertices_.push_back(static_cast<int>(v));
+  gap_ = kGapShare * length;
+  margin_ = kMarginShare * length;
+  piece_start_.assign(3 * rest.rows(), 0.0);
+  listed_at_.assign(3 * rest.rows(), 0.0);
+  moved_.assign(rest.rows(), 0.0);
+  piece_end_.assign(3 * rest.rows(), 0.0);
+  activation_ = kActivationShare * length;
+  stiffness_ = stiffness;
+  vertex_box_.resize(rest.rows());
+  triangle_box_.resize(triangles.rows());
+  leaf_box_.resize(triangles.rows());
+  build_tree(rest);
+
+  // Pairs near at rest are not watched; triangle pairs that cross at rest are remembered.
+  const double* P = rest.data();
+  refit(P, P, 0.5 * activation_);
+  collect_triangle_pairs();
+  collect_primitive_pairs();
+  double w[4];
+  for (std::uint64_t k : vt_) {
+    const int v = static_cast<int>(k >> 32), f = static_cast<int>(k & 0xffffffffu);
+    const double d2 = point_triangle_distance2(row(P, v), row(P, triangles_(f, 0)), row(P, triangles_(f, 1)),
+                                               row(P, triangles_(f, 2)), w);
+    if (d2 < activation_ * activation_) excluded_vt_.push_back(k);
+  }
+  for (std::uint64_t k : ee_) {
+    const int a = static_cast<int>(k >> 32), b = static_cast<int>(k & 0xffffffffu);
+    const double d2 = edge_edge_distance2(row(P, edges_[2 * a]), row(P, edges_[2 * a + 1]), row(P, edges_[2 * b]),
+                                          row(P, edges_[2 * b + 1]), w);
+    if (d2 < activation_ * activation_) excluded_ee_.push_back(k);
+  }
+  std::sort(excluded_vt_.begin(), excluded_vt_.end());
+  std::sort(excluded_ee_.begin(), excluded_ee_.end());
+  for (std::uint64_t k : tri_pairs_) {
+    const int f = static_cast<int>(k >> 32), g = static_cast<int>(k & 0xffffffffu);
+    if (triangles_cross(P, f, g)) rest_crossing_.push_back(k);
+  }
+  std::sort(rest_crossing_.begin(), rest_crossing_.end());
+}
+
+void SelfContact::build_tree(const Points& rest) {
+  std::vector<Eigen::Vector3d> centroid(triangles_.rows());
+  for (Eigen::Index f = 0; f < triangles_.rows(); ++f)
+    centroid[f] = (rest.row(triangles_(f, 0)) + rest.row(triangles_(f, 1)) + rest.row(triangles_(f, 2))).transpose() / 3;
+  leaf_triangles_.resize(triangles_.rows());
+  std::iota(leaf_triangles_.begin(), leaf_triangles_.end(), 0);
+  nodes_.reserve(2 * triangles_.rows() / kLeafSize + 2);
+  build_node(leaf_triangles_, 0, static_cast<int>(leaf_triangles_.size()), centroid);
+}
+
+// Median split along the longest side of the centroids' box; nodes in preorder
+// (a parent before its children), so a reverse pass refits bottom-up.
+int SelfContact::build_node(std::vector<int>& tris, int begin, int end, const std::vector<Eigen::Vector3d>& centroid) {
+  const int index = static_cast<int>(nodes_.size());
+  nodes_.emplace_back();
+  if (end - begin <= kLeafSize) {
+    nodes_[index].first = begin;
+    nodes_[index].count = end - begin;
+    return index;
+  }
+  Eigen::Vector3d lo = centroid[tris[begin]], hi = lo;
+  for (int k = begin; k < end; ++k) lo = lo.cwiseMin(centroid[tris[k]]), hi = hi.cwiseMax(centroid[tris[k]]);
+  int axis = 0;
+  (hi - lo).maxCoeff(&axis);
+  const int middle = begin + (end - begin) / 2;
+  std::nth_element(tris.begin() + begin, tris.begin() + middle, tris.begin() + end,
+                   [&](int a, int b) { return centroid[a][axis] < centroid[b][axis]; });
+  const int left = build_node(tris, begin, middle, centroid);
+  const int right = build_node(tris, middle, end, centroid);
+  nodes_[index].left = left;
+  nodes_[index].right = right;
+  return index;
+}
+
+void SelfContact::refit(const double* P0, const double* P1, double pad) {
+  for (int v : surface_vertices_) {
+    Box& b = vertex_box_[v];
+    for (int c = 0; c < 3; ++c) {
+      const double a = P0[3 * v + c], z = P1[3 * v + c];
+      b.lo[c] = std::min(a, z) - pad, b.hi[c] = std::max(a, z) + pad;
+    }
+  }
+  for (Eigen::Index f = 0; f < triangles_.rows(); ++f) {
+    Box& b = triangle_box_[f];
+    b = vertex_box_[triangles_(f, 0)];
+    grow(b, vertex_box_[triangles_(f, 1)]);
+    grow(b, vertex_box_[triangles_(f, 2)]);
+  }
+  for (int n = static_cast<int>(nodes_.size()) - 1; n >= 0; --n) {
+    Node& node = nodes_[n];
+    if (node.left < 0) {
+      for (int k = 0; k < node.count; ++k) leaf_box_[node.first + k] = triangle_box_[leaf_triangles_[node.first + k]];
+      node.box = leaf_box_[node.first];
+      for (int k = 1; k < node.count; ++k) grow(node.box, leaf_box_[node.first + k]);
+    } else {
+      node.box = nodes_[node.left].box;
+      grow(node.box, nodes_[node.right].box);
+    }
+  }
+}
+
+void SelfContact::collect_triangle_pairs() {
+  tri_pairs_.clear();
+  // i, j: places in leaf order (their boxes side by side in leaf_box_).
+  auto test = [&](int i, int j) {
+    if (overlap(leaf_box_[i], leaf_box_[j])) tri_pairs_.push_back(sorted_key(leaf_triangles_[i], leaf_triangles_[j]));
+  };
+  stack_.clear();
+  stack_.emplace_back(0, 0);
+  while (!stack_.empty()) {
+    const auto [a, b] = stack_.back();
+    stack_.pop_back();
+    const Node& na = nodes_[a];
+    const Node& nb = nodes_[b];
+    if (a == b) {
+      if (na.left < 0) {
+        for (int i = 0; i < na.count; ++i)
+          for (int j = i + 1; j < na.count; ++j) test(na.first + i, na.first + j);
+      } else {
+        stack_.emplace_back(na.left, na.left);
+        stack_.emplace_back(na.right, na.right);
+        stack_.emplace_back(na.left, na.right);
+      }
+      continue;
+    }
+    if (!overlap(na.box, nb.box)) continue;
+    if (na.left < 0 && nb.left < 0) {
+      for (int i = 0; i < na.count; ++i)
+        for (int j = 0; j < nb.count; ++j) test(na.first + i, nb.first + j);
+    } else if (na.left < 0 || (nb.left >= 0 && extent(nb.box) > extent(na.box))) {  // the larger one down
+      stack_.emplace_back(a, nb.left);
+      stack_.emplace_back(a, nb.right);
+    } else {
+      stack_.emplace_back(na.left, b);
+      stack_.emplace_back(na.right, b);
+    }
+  }
+}
+
+// Each point-triangle and edge-edge pair comes from one triangle pair only: a
+// vertex (an edge) is taken from the first triangle that holds it, whose box
+// holds the vertex's (the edge's) box. So no pair is listed twice, and none is
+// missed: if a vertex's box meets triangle g's, so does its first triangle's.
+void SelfContact::collect_primitive_pairs() {
+  vt_.clear();
+  ee_.clear();
+  for (std::uint64_t k : tri_pairs_) {
+    const int f = static_cast<int>(k >> 32), g = static_cast<int>(k & 0xffffffffu);
+    const int* tf = &triangles_(f, 0);
+    const int* tg = &triangles_(g, 0);
+    for (int pass = 0; pass < 2; ++pass) {
+      const int a = pass == 0 ? f : g, b = pass == 0 ? g : f;
+      const int* tb = pass == 0 ? tg : tf;
+      for (int i = 0; i < 3; ++i) {
+        const int v = triangles_(a, i);
+        if (first_triangle_of_vertex_[v] != a || v == tb[0] || v == tb[1] || v == tb[2]) continue;
+        if (overlap(vertex_box_[v], triangle_box_[b])) vt_.push_back(key(v, b));
+      }
+    }
+    for (int i = 0; i < 3; ++i) {
+      const int ea = triangle_edges_[3 * f + i];
+      if (first_triangle_of_edge_[ea] != f) continue;
+      const int a0 = edges_[2 * ea], a1 = edges_[2 * ea + 1];
+      Box box_a = vertex_box_[a0];
+      grow(box_a, vertex_box_[a1]);
+      for (int j = 0; j < 3; ++j) {
+        const int eb = triangle_edges_[3 * g + j];
+        if (first_triangle_of_edge_[eb] != g) continue;
+        const int b0 = edges_[2 * eb], b1 = edges_[2 * eb + 1];
+        if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) continue;
+        Box box_b = vertex_box_[b0];
+        grow(box_b, vertex_box_[b1]);
+        if (overlap(box_a, box_b)) ee_.push_back(sorted_key(ea, eb));
+      }
+    }
+  }
+}
+
+SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1) {
+  Step step;
+  active_.clear();
+  if (!active()) return step;
+  if (P0 == P1) {
+    sweep(P0, P1, false, step);
+    return step;
+  }
+  // A long move is checked in pieces no vertex moves more than half the margin
+  // in: the list of near pairs made at a piece's start then holds for all of it.
+  double longest = 0;
+  for (int v : surface_vertices_) longest = std::max(longest, (row(P1, v) - row(P0, v)).squaredNorm());
+  longest = std::sqrt(longest);
+  const double reach = 0.5 * margin_;
+  const int pieces = !(longest > reach) ? 1 : static_cast<int>(std::min<double>(kMostPieces, std::ceil(longest / reach)));
+  if (pieces == 1) {
+    sweep(P0, P1, true, step);
+    return step;
+  }
+  auto along = [&](int k, std::vector<double>& into) -> const double* {
+    if (k == 0) return P0;
+    if (k == pieces) return P1;
+    const double t = static_cast<double>(k) / pieces;
+    for (int v : surface_vertices_)
+      for (int c = 0; c < 3; ++c) into[3 * v + c] = P0[3 * v + c] + t * (P1[3 * v + c] - P0[3 * v + c]);
+    return into.data();
+  };
+  for (int k = 0; k < pieces; ++k) {
+    Step piece;
+    active_.clear();
+    sweep(along(k, piece_start_), along(k + 1, piece_end_), true, piece);
+    if (piece.fraction < 1) {
+      step.fraction = (k + piece.fraction) / pieces;
+      std::copy(piece.blocking, piece.blocking + 4, step.blocking);
+      return step;
+    }
+    step.energy = piece.energy;  // the last piece's: the barrier at P1
+  }
+  return step;
+}
+
+// One straight move from P0 to P1 checked in one pass (`moving`; else P0 == P1
+// is a state): step.fraction and step.blocking, the energy and pairs at P1.
+void SelfContact::sweep(const double* P0, const double* P1, bool moving, Step& step) {
+  if (!listed(P0, P1)) make_list(P0, P1);
+  Vec3 x[4], dx[4];
+  double w[4];
+  auto consider = [&](const int v[4], bool point_triangle) {
+    for (int k = 0; k < 4; ++k) x[k] = row(P0, v[k]), dx[k] = row(P1, v[k]) - x[k];
+    if (moving) {
+      const bool still = dx[0].isZero(0) && dx[1].isZero(0) && dx[2].isZero(0) && dx[3].isZero(0);
+      const double t = still ? 1.0
+                             : point_triangle ? point_triangle_impact(x, dx, gap_) : edge_edge_impact(x, dx, gap_);
+      if (t < step.fraction) {
+        step.fraction = t;
+        std::copy(v, v + 4, step.blocking);
+      }
+    }
+    if (step.fraction < 1) return;
+    for (int k = 0; k < 4; ++k) x[k] += dx[k];
+    const double d2 = point_triangle ? point_triangle_distance2(x[0], x[1], x[2], x[3], w)
+                                     : edge_edge_distance2(x[0], x[1], x[2], x[3], w);
+    if (!(d2 < activation_ * activation_)) return;
+    const double d = std::sqrt(d2);
+    if (!(d > gap_) && !moving) {
+      step.fraction = 0;  // a state no step may start from (see is_clear)
+      std::copy(v, v + 4, step.blocking);
+      return;
+    }
+    step.energy += stiffness_ * barrier(d);
+    ActivePair p;
+    std::copy(v, v + 4, p.v);
+    std::copy(w, w + 4, p.w);
+    const Vec3 diff = w[0] * x[0] + w[1] * x[1] + w[2] * x[2] + w[3] * x[3];
+    for (int c = 0; c < 3; ++c) p.dir[c] = diff[c] / d;
+    p.slope = stiffness_ * barrier_slope(d);
+    active_.push_back(p);
+  };
+  // A pair whose distance where the list was made, less how far its two sides
+  // can have moved since, stays beyond the activation distance is skipped.
+  auto far = [&](double listed_distance, double side_a, double side_b) {
+    return listed_distance - side_a - side_b >= activation_;
+  };
+  const double within = activation_ + 2 * most_moved_;
+  for (const NearPair& n : near_vt_) {
+    if (n.distance >= within) break;
+    const int f = static_cast<int>(n.key & 0xffffffffu);
+    const int v[4] = {static_cast<int>(n.key >> 32), triangles_(f, 0), triangles_(f, 1), triangles_(f, 2)};
+    if (far(n.distance, moved_[v[0]], std::max({moved_[v[1]], moved_[v[2]], moved_[v[3]]}))) continue;
+    consider(v, true);
+  }
+  for (const NearPair& n : near_ee_) {
+    if (n.distance >= within) break;
+    const int a = static_cast<int>(n.key >> 32), b = static_cast<int>(n.key & 0xffffffffu);
+    const int v[4] = {edges_[2 * a], edges_[2 * a + 1], edges_[2 * b], edges_[2 * b + 1]};
+    if (far(n.distance, std::max(moved_[v[0]], moved_[v[1]]), std::max(moved_[v[2]], moved_[v[3]]))) continue;
+    consider(v, false);
+  }
+  if (step.fraction < 1) {
+    // Moving: the step is refused, its end is not evaluated. Still: a state closer than the gap.
+    step.energy = moving ? 0 : std::numeric_limits<double>::infinity();
+    active_.clear();
+  }
+}
+
+void SelfContact::add_half_gradient(const std::vector<int>& free_row, double* g) const {
+  for (const ActivePair& p : active_)
+    for (int k = 0; k < 4; ++k) {
+      const int r = free_row[p.v[k]];
+      if (r < 0) continue;
+      for (int c = 0; c < 3; ++c) g[3 * r + c] += 0.5 * p.slope * p.w[k] * p.dir[c];
+    }
+}
+
+void SelfContact::add_gradient(double* gradient) const {
+  for (const ActivePair& p : active_)
+    for (int k = 0; k < 4; ++k)
+      for (int c = 0; c < 3; ++c) gradient[3 * p.v[k] + c] += p.slope * p.w[k] * p.dir[c];
+}
+
+// Whether the list holds for the move P0 -> P1; moved_ then bounds how far
+// each vertex is from where the list was made, anywhere on the move.
+// Whether the list holds for the move P0 -> P1; moved_ then bounds how far
+// each vertex is from where the list was made, anywhere on the move.
+bool SelfContact::listed(const double* P0, const double* P1) {
+  if (!list_made_) return false;
+  const double reach2 = 0.25 * list_margin_ * list_margin_;
+  most_moved_ = 0;
+  for (int v : surface_vertices_) {
+    const Vec3 at = row(listed_at_.data(), v);
+    const double m2 = std::max((row(P0, v) - at).squaredNorm(), (row(P1, v) - at).squaredNorm());
+    if (m2 > reach2) return false;
+    moved_[v] = std::sqrt(m2);
+    most_moved_ = std::max(most_moved_, moved_[v]);
+  }
+  return true;
+}
+
+// The watched pairs closer than activation + margin at P0; the margin grows
+// for a step P0 -> P1 longer than half of it (one cut into the most pieces).
+void SelfContact::make_list(const double* P0, const double* P1) {
+  double longest = 0;
+  for (int v : surface_vertices_) longest = std::max(longest, (row(P1, v) - row(P0, v)).squaredNorm());
+  list_margin_ = std::max(margin_, 2.001 * std::sqrt(longest));
+  refit(P0, P0, 0.5 * (activation_ + list_margin_));
+  collect_triangle_pairs();
+  collect_primitive_pairs();
+  near_vt_.clear();
+  near_ee_.clear();
+  const double reach2 = (activation_ + list_margin_) * (activation_ + list_margin_);
+  double w[4];
+  for (std::uint64_t k : vt_) {
+    if (excluded(excluded_vt_, k)) continue;
+    const int v = static_cast<int>(k >> 32), f = static_cast<int>(k & 0xffffffffu);
+    const double d2 = point_triangle_distance2(row(P0, v), row(P0, triangles_(f, 0)), row(P0, triangles_(f, 1)),
+                                               row(P0, triangles_(f, 2)), w);
+    if (d2 < reach2) near_vt_.push_back({std::sqrt(d2), k});
+  }
+  for (std::uint64_t k : ee_) {
+    if (excluded(excluded_ee_, k)) continue;
+    const int a = static_cast<int>(k >> 32), b = static_cast<int>(k & 0xffffffffu);
+    const double d2 = edge_edge_distance2(row(P0, edges_[2 * a]), row(P0, edges_[2 * a + 1]), row(P0, edges_[2 * b]),
+                                          row(P0, edges_[2 * b + 1]), w);
+    if (d2 < reach2) near_ee_.push_back({std::sqrt(d2), k});
+  }
+  // Nearest first: a move checks only the pairs that its largest motion can bring within reach.
+  auto nearer = [](const NearPair& a, const NearPair& b) { return a.distance < b.distance; };
+  std::sort(near_vt_.begin(), near_vt_.end(), nearer);
+  std::sort(near_ee_.begin(), near_ee_.end(), nearer);
+  for (int v : surface_vertices_)
+    for (int c = 0; c < 3; ++c) listed_at_[3 * v + c] = P0[3 * v + c];
+  list_made_ = true;
+  listed(P0, P1);  // sets moved_ (the margin covers the move)
+  ++lists_made_;
+}
+
+
+bool SelfContact::is_clear(const double* P) {
+  if (!active()) return true;
+  if (evaluate(P, P).fraction < 1) return false;
+  refit(P, P, 0.5 * activation_);
+  collect_triangle_pairs();
+  for (std::uint64_t k : tri_pairs_) {
+    const int f = static_cast<int>(k >> 32), g = static_cast<int>(k & 0xffffffffu);
+    if (!excluded(rest_crossing_, k) && triangles_cross(P, f, g)) return false;
+  }
+  return true;
+}
+
+// Whether triangles f and g (sharing no vertex) cross: an edge of one through
+// the other. A triangle wholly on one side of the other's plane, or both in
+// one plane (an overlap there is not a crossing), is passed without the edge tests.
+bool SelfContact::triangles_cross(const double* P, int f, int g) const {
+  if (share_vertex(&triangles_(f, 0), &triangles_(g, 0))) return false;
+  auto one_side = [&](int a, int b) {
+    const Vec3 p = row(P, triangles_(b, 0));
+    const Vec3 n = (row(P, triangles_(b, 1)) - p).cross(row(P, triangles_(b, 2)) - p);
+    const double tolerance = 1e-12 * n.norm() * std::sqrt(n.norm());
+    int above = 0, below = 0;
+    for (int i = 0; i < 3; ++i) {
+      const double side = n.dot(row(P, triangles_(a, i)) - p);
+      above += side > tolerance;
+      below += side < -tolerance;
+    }
+    return above == 3 || below == 3 || (above == 0 && below == 0);
+  };
+  if (one_side(f, g) || one_side(g, f)) return false;
+  for (int pass = 0; pass < 2; ++pass) {
+    const int a = pass == 0 ? f : g, b = pass == 0 ? g : f;
+    for (int e = 0; e < 3; ++e)
+      if (segment_crosses_triangle(row(P, triangles_(a, e)), row(P, triangles_(a, (e + 1) % 3)),
+                                   row(P, triangles_(b, 0)), row(P, triangles_(b, 1)), row(P, triangles_(b, 2))))
+        return true;
+  }
+  return false;
+}
+
+}  // namespace arap::contact

@@ -1,0 +1,122 @@
+// Self-contact of the surface (Options::contact == Contact::Self): a barrier on
+// the distances of near primitive pairs and continuous collision detection of
+// every step, as in Incremental Potential Contact (Li et al. 2020, eq. 6 and
+// section 4). The pairs are a point against a triangle and an edge against an
+// edge, taken from surface triangles that share no vertex.
+//
+// A pair closer than the activation distance d^ in the rest shape (touching
+// layers, triangles that already cross) is excluded; every other pair adds
+//   kappa b(d),  b(d) = -(d - d^)^2 ln(d / d^)  for d < d^, 0 beyond,
+// to the energy (C2 at d^, infinite at 0), and a step is only ever taken as far
+// as every such pair stays farther apart than the gap (< d^). So two triangles
+// that are at least d^ apart at rest never cross, at any accepted step.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "arap/types.h"
+
+namespace arap::contact {
+
+// The gap and the activation distance as fractions of the mean edge length (docs/contact.md).
+constexpr double kGapShare = 0.01;
+constexpr double kActivationShare = 0.1;
+
+class SelfContact {
+ public:
+  // `triangles`: the surface (#F by 3, internal vertex indices); `rest`: #n by
+  // 3 (internal order and units); `stiffness`: kappa.
+  void bind(const Points& rest, const Triangles& triangles, double stiffness);
+  bool active() const { return triangles_.rows() > 0; }
+  double gap() const { return gap_; }
+  double activation() const { return activation_; }
+  long lists_made() const { return lists_made_; }
+  long active_pairs() const { return static_cast<long>(active_.size()); }
+  long excluded_pairs() const { return static_cast<long>(excluded_vt_.size() + excluded_ee_.size()); }
+
+  // What moving every vertex from P0 to P1 (#n by 3 each, row-major) meets:
+  // `fraction` of the step that is safe (1: all of it), and, when all of it
+  // is, the barrier energy at P1. The pairs active at P1 are kept for
+  // add_half_gradient(); when fraction < 1, `blocking` holds the four vertices
+  // of the pair that stopped the step.
+  struct Step {
+    double fraction = 1;
+    double energy = 0;
+    int blocking[4] = {-1, -1, -1, -1};
+  };
+  Step evaluate(const double* P0, const double* P1);
+  // The barrier energy at P (no motion).
+  double energy(const double* P) { return evaluate(P, P).energy; }
+  // g += 1/2 dE_contact/dp on the free rows (`free_row`: vertex -> row or -1,
+  // 3 entries per row), for the pairs of the last evaluate().
+  void add_half_gradient(const std::vector<int>& free_row, double* g) const;
+  // dE_contact/dp for every vertex (#n by 3), for the pairs of the last evaluate().
+  void add_gradient(double* gradient) const;
+  // Whether P is a state a step may start from: every watched pair farther
+  // apart than the gap and no two triangles crossing that did not cross at rest.
+  bool is_clear(const double* P);
+
+ private:
+  struct Box {
+    double lo[3], hi[3];
+  };
+  struct Node {
+    Box box;
+    int left = -1, right = -1;  // children, or -1 for a leaf
+    int first = 0, count = 0;   // a leaf's triangles: leaf_triangles_[first, first + count)
+  };
+  struct ActivePair {
+    int v[4];
+    double w[4];
+    double dir[3];  // (closest-point difference) / d
+    double slope;   // kappa b'(d)
+  };
+  void build_tree(const Points& rest);
+  int build_node(std::vector<int>& tris, int begin, int end, const std::vector<Eigen::Vector3d>& centroid);
+  void refit(const double* P0, const double* P1, double pad);
+  // Candidate triangle pairs (sharing no vertex, boxes overlapping) into tri_pairs_.
+  void collect_triangle_pairs();
+  // Point-triangle and edge-edge candidates of tri_pairs_ into vt_ and ee_ (sorted, unique).
+  void collect_primitive_pairs();
+  bool excluded(const std::vector<std::uint64_t>& sorted, std::uint64_t key) const;
+  void sweep(const double* P0, const double* P1, bool moving, Step& step);
+  bool listed(const double* P0, const double* P1);
+  void make_list(const double* P0, const double* P1);
+  bool triangles_cross(const double* P, int f, int g) const;
+  double barrier(double d) const;
+  double barrier_slope(double d) const;
+
+  Triangles triangles_;
+  std::vector<int> edges_;           // 2 per edge
+  std::vector<int> triangle_edges_;  // 3 per triangle
+  std::vector<int> surface_vertices_;
+  std::vector<int> first_triangle_of_vertex_, first_triangle_of_edge_;
+  std::vector<Node> nodes_;
+  std::vector<int> leaf_triangles_;
+  double gap_ = 0, activation_ = 0, margin_ = 0, stiffness_ = 0;
+  std::vector<std::uint64_t> excluded_vt_, excluded_ee_;  // sorted keys (vertex, triangle), (edge, edge)
+  std::vector<std::uint64_t> rest_crossing_;              // triangle pairs that cross at rest, sorted
+
+  // Scratch of evaluate(), kept between calls (no allocation once grown).
+  std::vector<Box> vertex_box_;  // per vertex (swept, padded); only surface vertices are set
+  std::vector<Box> triangle_box_;
+  std::vector<Box> leaf_box_;    // triangle_box_ in the order of leaf_triangles_
+  std::vector<std::uint64_t> tri_pairs_, vt_, ee_;
+  std::vector<std::pair<int, int>> stack_;
+  std::vector<ActivePair> active_;
+  struct NearPair {
+    double distance;  // where the list was made
+    std::uint64_t key;
+  };
+  std::vector<NearPair> near_vt_, near_ee_;  // the watched pairs within activation + margin, nearest first
+  std::vector<double> listed_at_;                 // 3 per vertex: where the list was made
+  std::vector<double> moved_;                     // per vertex: how far from there, on the move checked
+  double most_moved_ = 0;
+  double list_margin_ = 0;
+  bool list_made_ = false;
+  long lists_made_ = 0;
+  std::vector<double> piece_start_, piece_end_;  // 3 per vertex: the ends of one piece of a long step
+};
+
+}  // namespace arap::contact

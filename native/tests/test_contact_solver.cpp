@@ -1,0 +1,364 @@
+// Self-contact in the solver (Options::contact == Contact::Self): poses that
+// cross without it do not with it, constraints stay exact, poses that come
+// nowhere near are those of the solve without it, pairs that cross at rest are
+// left alone, and a handle pulled through the body stops short at contact.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <set>
+#include <utility>
+
+#include "arap/errors.h"
+#include "arap/io/shape_measures.h"
+#include "arap/procedural.h"
+#include "arap/solver.h"
+#include "contact/primitives.h"
+#include "contact/self_contact.h"
+#include "gradient_check.h"
+
+namespace {
+
+using arap::Contact;
+using arap::Options;
+using arap::Points;
+using arap::Solver;
+using arap::SolveStats;
+using arap::Triangles;
+
+struct Scene {
+  Points rest;
+  Triangles triangles;
+  std::vector<int> constrained;  // fixed first, then the handle
+  int fixed_count = 0;
+  Points targets;
+};
+
+// A 1 x 1 x 5 bar standing on z = 0, its lowest fifth fixed and its top 5%
+// moved by `shift` (in bar lengths): a large sideways and downward move folds
+// the bar into itself.
+Scene bent_bar(const Eigen::Vector3d& shift, int vertices = 600) {
+  Scene s;
+  const arap::procedural::TriMesh bar = arap::procedural::make_bar_with_vertices(vertices, 5.0);
+  s.rest = bar.vertices;
+  s.triangles = bar.triangles;
+  const auto picked = arap::procedural::pick_by_height(s.rest, 2, 0.2, 0.05);
+  s.constrained = picked.fixed;
+  s.fixed_count = static_cast<int>(picked.fixed.size());
+  s.constrained.insert(s.constrained.end(), picked.handle.begin(), picked.handle.end());
+  s.targets.resize(static_cast<Eigen::Index>(s.constrained.size()), 3);
+  for (size_t k = 0; k < s.constrained.size(); ++k) {
+    s.targets.row(k) = s.rest.row(s.constrained[k]);
+    if (static_cast<int>(k) >= s.fixed_count) s.targets.row(k) += 5.0 * shift.transpose();
+  }
+  return s;
+}
+
+Options with_contact(Contact contact) {
+  Options o;
+  o.contact = contact;
+  return o;
+}
+
+struct Result {
+  Points positions;
+  SolveStats stats;
+};
+
+Result solve(const Scene& s, const Options& options) {
+  Solver solver;
+  solver.bind(s.rest, s.triangles, s.constrained, options);
+  Result r;
+  r.stats = solver.solve(s.targets);
+  r.positions = solver.positions();
+  return r;
+}
+
+std::set<std::pair<int, int>> crossing_pairs(const Points& P, const Triangles& T) {
+  std::vector<std::pair<int, int>> list;
+  arap::measure::self_intersecting_pairs(P, T, &list);
+  std::set<std::pair<int, int>> pairs;
+  for (auto [a, b] : list) pairs.insert({std::min(a, b), std::max(a, b)});
+  return pairs;
+}
+
+double largest_constraint_error(const Scene& s, const Points& P) {
+  double worst = 0;
+  for (size_t k = 0; k < s.constrained.size(); ++k)
+    worst = std::max(worst, (P.row(s.constrained[k]) - s.targets.row(k)).norm());
+  return worst;
+}
+
+// The distance between triangles f and g of P (0 when they cross).
+double triangle_distance(const Points& P, const Triangles& T, int f, int g) {
+  using arap::contact::Vec3;
+  auto at = [&](int v) -> Vec3 { return P.row(v).transpose(); };
+  double w[4], d2 = std::numeric_limits<double>::infinity();
+  for (int pass = 0; pass < 2; ++pass) {
+    const int a = pass == 0 ? f : g, b = pass == 0 ? g : f;
+    for (int i = 0; i < 3; ++i) {
+      d2 = std::min(d2, arap::contact::point_triangle_distance2(at(T(a, i)), at(T(b, 0)), at(T(b, 1)), at(T(b, 2)), w));
+      if (arap::contact::segment_crosses_triangle(at(T(a, i)), at(T(a, (i + 1) % 3)), at(T(b, 0)), at(T(b, 1)),
+                                                  at(T(b, 2))))
+        return 0;
+    }
+  }
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      d2 = std::min(d2, arap::contact::edge_edge_distance2(at(T(f, i)), at(T(f, (i + 1) % 3)), at(T(g, j)),
+                                                          at(T(g, (j + 1) % 3)), w));
+  return std::sqrt(d2);
+}
+
+double mean_edge_length(const Points& P, const Triangles& T) {
+  double sum = 0;
+  for (Eigen::Index f = 0; f < T.rows(); ++f)
+    for (int k = 0; k < 3; ++k) sum += (P.row(T(f, k)) - P.row(T(f, (k + 1) % 3))).norm();
+  return sum / (3.0 * T.rows());
+}
+
+// Folded into itself: the top pulled sideways and down past the fixed base.
+const Eigen::Vector3d kFold(0.5, 0.0, -0.6);
+
+TEST(ContactSolver, ABarFoldedIntoItselfCrossesWithoutContactAndNotWithIt) {
+  const Scene s = bent_bar(kFold);
+  const Result plain = solve(s, with_contact(Contact::None));
+  ASSERT_GT(crossing_pairs(plain.positions, s.triangles).size(), 0u) << "the scene must cross without contact";
+  const Result r = solve(s, with_contact(Contact::Self));
+  ASSERT_TRUE(r.positions.allFinite());
+  EXPECT_EQ(crossing_pairs(r.positions, s.triangles).size(), 0u);
+  EXPECT_DOUBLE_EQ(r.stats.contact_reached, 1.0);
+  EXPECT_EQ(r.stats.contact_stopped_vertex, -1);
+  EXPECT_LE(largest_constraint_error(s, r.positions), 1e-12 * 5.0);
+  EXPECT_GT(r.stats.contact_pairs, 0) << "the pose should rest against itself somewhere";
+  for (size_t k = 1; k < r.stats.energy.size(); ++k)
+    EXPECT_LE(r.stats.energy[k], r.stats.energy[k - 1]) << "iteration " << k;
+}
+
+TEST(ContactSolver, LocalGlobalAndVolumeModesKeepTheGuaranteeToo) {
+  const Scene s = bent_bar(kFold);
+  for (arap::Volume volume : {arap::Volume::None, arap::Volume::Global, arap::Volume::Infill}) {
+    Options o = with_contact(Contact::Self);
+    o.method = arap::Method::LocalGlobal;
+    o.volume = volume;
+    o.infill_resolution = 6;
+    const Result r = solve(s, o);
+    ASSERT_TRUE(r.positions.allFinite()) << to_string(volume);
+    EXPECT_EQ(crossing_pairs(r.positions, s.triangles).size(), 0u) << to_string(volume);
+    EXPECT_LE(largest_constraint_error(s, r.positions), 1e-12 * 5.0) << to_string(volume);
+  }
+}
+
+TEST(ContactSolver, WhereNothingComesNearThePoseIsTheSolveWithoutContact) {
+  const Scene s = bent_bar(Eigen::Vector3d(0.15, 0.0, 0.0));
+  const Result plain = solve(s, with_contact(Contact::None));
+  const Result r = solve(s, with_contact(Contact::Self));
+  EXPECT_EQ(r.stats.contact_pairs, 0);
+  EXPECT_LE((r.positions - plain.positions).cwiseAbs().maxCoeff(), 1e-9 * 5.0);
+  EXPECT_EQ(r.stats.iterations, plain.stats.iterations);
+}
+
+// Pairs nearer than the activation distance at rest (those that cross among
+// them) are not watched; every pair farther apart than that never crosses.
+TEST(ContactSolver, PairsThatCrossAtRestAreLeftAloneAndNoPairApartAtRestCrosses) {
+  // A second bar through the first, held at both ends; the first is folded.
+  Scene s = bent_bar(kFold, 400);
+  const Points upright = s.rest;
+  const Eigen::Index n = upright.rows();
+  Points rest(2 * n, 3);
+  rest.topRows(n) = upright;
+  for (Eigen::Index v = 0; v < n; ++v)  // turned to lie along x, through the upright one at half height
+    rest.row(n + v) << upright(v, 2) - 2.0, upright(v, 1), 3.0 - upright(v, 0);
+  Triangles triangles(2 * s.triangles.rows(), 3);
+  triangles.topRows(s.triangles.rows()) = s.triangles;
+  triangles.bottomRows(s.triangles.rows()) = s.triangles.array() + static_cast<int>(n);
+  std::vector<int> constrained(s.constrained.begin(), s.constrained.begin() + s.fixed_count);
+  for (Eigen::Index v = 0; v < n; ++v)
+    if (upright(v, 2) <= 0.25 || upright(v, 2) >= 4.75) constrained.push_back(static_cast<int>(n + v));
+  const std::size_t extra_fixed = constrained.size() - s.fixed_count;
+  constrained.insert(constrained.end(), s.constrained.begin() + s.fixed_count, s.constrained.end());
+  Points targets(static_cast<Eigen::Index>(constrained.size()), 3);
+  for (size_t k = 0; k < constrained.size(); ++k) targets.row(k) = rest.row(constrained[k]);
+  for (Eigen::Index k = s.fixed_count; k < s.targets.rows(); ++k)
+    targets.row(s.fixed_count + extra_fixed + (k - s.fixed_count)) = s.targets.row(k);
+  const auto at_rest = crossing_pairs(rest, triangles);
+  ASSERT_GT(at_rest.size(), 0u) << "the two bars must cross at rest";
+
+  Solver solver;
+  solver.bind(rest, triangles, constrained, with_contact(Contact::Self));
+  solver.solve(targets);
+  ASSERT_TRUE(solver.positions().allFinite());
+  const double apart = arap::contact::kActivationShare * mean_edge_length(rest, triangles);
+  const int first_bar = static_cast<int>(s.triangles.rows());
+  auto within_first_bar = [&](const std::set<std::pair<int, int>>& pairs) {
+    return std::count_if(pairs.begin(), pairs.end(), [&](const auto& p) { return p.second < first_bar; });
+  };
+  const auto posed = crossing_pairs(solver.positions(), triangles);
+  for (const auto& pair : posed) {
+    if (at_rest.count(pair)) continue;
+    EXPECT_LT(triangle_distance(rest, triangles, pair.first, pair.second), apart)
+        << "triangles " << pair.first << " and " << pair.second << " were apart at rest and crossed";
+  }
+  // Without contact the folded bar crosses itself, far from the other bar; with it, not.
+  Solver plain;
+  plain.bind(rest, triangles, constrained, with_contact(Contact::None));
+  plain.solve(targets);
+  EXPECT_GT(within_first_bar(crossing_pairs(plain.positions(), triangles)), 0);
+  EXPECT_EQ(within_first_bar(posed), 0);
+}
+
+TEST(ContactSolver, AHandlePulledThroughTheBodyStopsShortAtContactAndSaysWhich) {
+  // The top pulled straight down through the bar to below its base.
+  const Scene s = bent_bar(Eigen::Vector3d(0.0, 0.0, -1.2), 400);
+  const Result r = solve(s, with_contact(Contact::Self));
+  ASSERT_TRUE(r.positions.allFinite());
+  EXPECT_EQ(crossing_pairs(r.positions, s.triangles).size(), 0u);
+  EXPECT_LT(r.stats.contact_reached, 1.0);
+  EXPECT_GT(r.stats.contact_reached, 0.0);
+  const std::vector<int> handle(s.constrained.begin() + s.fixed_count, s.constrained.end());
+  EXPECT_NE(std::find(handle.begin(), handle.end(), r.stats.contact_stopped_vertex), handle.end())
+      << "stopped vertex " << r.stats.contact_stopped_vertex << " is not a handle vertex";
+  // The fixed vertices stay exactly where they are.
+  for (int k = 0; k < s.fixed_count; ++k) EXPECT_EQ(r.positions.row(s.constrained[k]), s.targets.row(k));
+}
+
+TEST(ContactSolver, TheBarrierIsPartOfTheEnergyAndItsGradient) {
+  const Scene s = bent_bar(kFold, 400);
+  Solver solver;
+  solver.bind(s.rest, s.triangles, s.constrained, with_contact(Contact::Self));
+  const SolveStats stats = solver.solve(s.targets);
+  ASSERT_GT(stats.contact_pairs, 0);
+  Solver plain;
+  plain.bind(s.rest, s.triangles, s.constrained, with_contact(Contact::None));
+  EXPECT_GT(solver.energy(solver.positions()), plain.energy(solver.positions()));
+  // The free vertices that a barrier pushes on: where the two gradients differ.
+  const Points with = solver.energy_gradient(solver.positions());
+  const Points without = plain.energy_gradient(solver.positions());
+  std::vector<int> touched;
+  for (Eigen::Index v = 0; v < with.rows() && touched.size() < 12; ++v)
+    if ((with.row(v) - without.row(v)).norm() > 1e-6 * (1 + with.row(v).norm())) touched.push_back(static_cast<int>(v));
+  ASSERT_FALSE(touched.empty());
+  arap_test::expect_gradient_matches_finite_differences(solver, touched);
+}
+
+TEST(ContactSolver, SolvesInShortChunksNeverShowACrossing) {
+  const Scene s = bent_bar(kFold, 400);
+  Options o = with_contact(Contact::Self);
+  o.max_iterations = 3;
+  o.init = arap::InitialGuess::WarmStart;
+  Solver solver;
+  solver.bind(s.rest, s.triangles, s.constrained, o);
+  for (int chunk = 0; chunk < 40; ++chunk) {
+    // The handle moves there over the first ten chunks, as in a drag.
+    Points targets = s.targets;
+    const double share = std::min(1.0, (chunk + 1) / 10.0);
+    for (Eigen::Index k = s.fixed_count; k < targets.rows(); ++k)
+      targets.row(k) = s.rest.row(s.constrained[k]) + share * (s.targets.row(k) - s.rest.row(s.constrained[k]));
+    solver.solve(targets);
+    ASSERT_TRUE(solver.positions().allFinite());
+    ASSERT_EQ(crossing_pairs(solver.positions(), s.triangles).size(), 0u) << "chunk " << chunk;
+  }
+}
+
+TEST(ContactSolver, OneAndTwoThreadsGiveTheSameBits) {
+  const Scene s = bent_bar(kFold, 400);
+  Options one = with_contact(Contact::Self), two = one;
+  two.threads = 2;
+  EXPECT_EQ(solve(s, one).positions, solve(s, two).positions);
+}
+
+TEST(ContactSolver, AndersonIsRefusedWithAMessage) {
+  const Scene s = bent_bar(kFold, 200);
+  Options o = with_contact(Contact::Self);
+  o.method = arap::Method::Anderson;
+  Solver solver;
+  try {
+    solver.bind(s.rest, s.triangles, s.constrained, o);
+    FAIL() << "anderson with contact self was accepted";
+  } catch (const arap::Error& e) {
+    EXPECT_EQ(e.code(), arap::ErrorCode::InvalidInput);
+    EXPECT_NE(std::string(e.what()).find("anderson"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ContactSolver, ChangingTheContactModeNeedsABind) {
+  const Scene s = bent_bar(kFold, 200);
+  Solver solver;
+  solver.bind(s.rest, s.triangles, s.constrained, with_contact(Contact::None));
+  solver.options().contact = Contact::Self;
+  EXPECT_THROW(solver.solve(s.targets), arap::Error);
+}
+
+}  // namespace
+
+namespace {
+
+// The list of near pairs kept between steps misses nothing: a long run of
+// random moves checked by one SelfContact gives, step by step, what a fresh one
+// (its list made for that step alone) gives.
+TEST(ContactPairList, AKeptListSeesWhatAFreshOneSees) {
+  const Scene s = bent_bar(kFold, 300);
+  const double size = 5.0;
+  Points P = s.rest / size;  // internal units are about 1
+  arap::contact::SelfContact kept;
+  kept.bind(P, s.triangles, 1.0);
+  std::mt19937 random(7);
+  std::normal_distribution<double> step(0.0, 1.0);
+  const double edge = mean_edge_length(P, s.triangles);
+  int cut = 0, touching = 0;
+  for (int k = 0; k < 300; ++k) {
+    // Smooth moves of the whole bar (a bend that grows), plus noise of a few tenths of an edge, some long.
+    Points next = P;
+    const double scale = (k % 17 == 0 ? 3.0 : 0.2) * edge;
+    for (Eigen::Index v = 0; v < P.rows(); ++v) {
+      const double h = s.rest(v, 2) / size;
+      next.row(v) += Eigen::RowVector3d(0.02 * h * h, 0.0, -0.01 * h) + scale * Eigen::RowVector3d(step(random), step(random), step(random));
+    }
+    arap::contact::SelfContact fresh;
+    fresh.bind(s.rest / size, s.triangles, 1.0);
+    const auto a = kept.evaluate(P.data(), next.data());
+    const auto b = fresh.evaluate(P.data(), next.data());
+    ASSERT_EQ(a.fraction, b.fraction) << "step " << k;
+    ASSERT_NEAR(a.energy, b.energy, 1e-12 * (1 + std::abs(b.energy))) << "step " << k;
+    ASSERT_EQ(kept.active_pairs(), fresh.active_pairs()) << "step " << k;
+    cut += a.fraction < 1;
+    touching += kept.active_pairs() > 0;
+    if (a.fraction >= 1) P = next;
+  }
+  EXPECT_GT(cut, 0) << "no step was cut: the test moved nothing close";
+  EXPECT_GT(touching, 0);
+}
+
+}  // namespace
+
+namespace {
+
+// In a viewport's chunks (a time budget, the same targets again and again), a
+// pose that cannot be reached still settles: the handles stop short, the solve
+// says so in every chunk after, and reports converged only once it is done.
+TEST(ContactSolver, ChunksTowardAnUnreachableTargetSettleShortAndSaySo) {
+  const Scene s = bent_bar(Eigen::Vector3d(0.0, 0.0, -1.2), 300);
+  Options o = with_contact(Contact::Self);
+  o.time_budget_ms = 1;
+  o.init = arap::InitialGuess::WarmStart;
+  Solver solver;
+  solver.bind(s.rest, s.triangles, s.constrained, o);
+  SolveStats stats;
+  int chunk = 0;
+  for (; chunk < 3000; ++chunk) {
+    stats = solver.solve(s.targets);
+    ASSERT_TRUE(solver.positions().allFinite()) << "chunk " << chunk;
+    ASSERT_EQ(crossing_pairs(solver.positions(), s.triangles).size(), 0u) << "chunk " << chunk;
+    if (stats.converged) break;
+  }
+  ASSERT_TRUE(stats.converged) << "still not settled after " << chunk << " chunks";
+  EXPECT_LT(stats.contact_reached, 1.0);
+  EXPECT_GT(largest_constraint_error(s, solver.positions()), 1e-3);
+  // Resumed with nothing left to do: still short, still said.
+  const SolveStats again = solver.solve(s.targets);
+  EXPECT_EQ(again.contact_reached, stats.contact_reached);
+  EXPECT_EQ(again.contact_stopped_vertex, stats.contact_stopped_vertex);
+}
+
+}  // namespace
