@@ -1,0 +1,73 @@
+#!/usr/bin/env python3
+"""Live with and without Self Contact, through the native module (docs/contact.md).
+
+    build/arap-make-mesh bar --vertices 10000 --output bar10k.obj
+    /usr/bin/python3 bench/native/contact_live.py build/addon/arap_deform bar10k.obj
+
+Binds the bar (lowest fifth fixed, top 5% the handle) with contact none and
+self, in turn, then solves as Live does: warm starts with a time budget per
+update (default 33 ms), 60 updates that drag the handle to the fold of
+docs/contact.md (half the bar's length sideways, 0.6 of it down), then 60
+updates holding it there. Prints the CPU time per update (time.process_time:
+the machine may be busy) while dragging and while holding, and the update at
+which the pose settled. Needs numpy.
+"""
+
+import argparse
+import sys
+import time
+
+import numpy as np
+
+
+def read_obj(path):
+    vertices, faces = [], []
+    with open(path) as f:
+        for line in f:
+            parts = line.split()
+            if parts and parts[0] == "v":
+                vertices.append([float(x) for x in parts[1:4]])
+            elif parts and parts[0] == "f":
+                faces.append([int(p.split("/")[0]) - 1 for p in parts[1:]])
+    return np.array(vertices), np.array(faces, np.int32)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("module_dir", help="the folder holding _arap_native (build/addon/arap_deform)")
+    parser.add_argument("mesh", help="an OBJ bar standing along z")
+    parser.add_argument("--budget-ms", type=float, default=33.0)
+    parser.add_argument("--runs", type=int, default=2, help="runs of none then self, in turn")
+    args = parser.parse_args()
+    sys.path.insert(0, args.module_dir)
+    import _arap_native as arap
+
+    rest, faces = read_obj(args.mesh)
+    z = rest[:, 2]
+    lo, length = z.min(), z.max() - z.min()
+    fixed = np.where(z <= lo + 0.2 * length + 1e-9)[0]
+    handle = np.where(z >= lo + 0.95 * length - 1e-9)[0]
+    constrained = np.concatenate([fixed, handle]).astype(np.int64)
+    fold = np.array([0.5, 0.0, -0.6]) * length
+    for _ in range(args.runs):
+        for contact in ("none", "self"):
+            solver = arap.Solver()
+            solver.bind(rest, faces, constrained, contact=contact)
+            solver.configure(init="warm", time_budget_ms=args.budget_ms)
+            cpu, settled = [], None
+            for k in range(120):
+                targets = rest[constrained].copy()
+                targets[len(fixed):] += min(1.0, (k + 1) / 60) * fold
+                start = time.process_time()
+                stats = solver.solve(targets)
+                cpu.append((time.process_time() - start) * 1e3)
+                if k >= 59 and stats.converged and settled is None:
+                    settled = k - 59
+            cpu = np.array(cpu)
+            print("%-4s CPU ms per update: drag median %.1f max %.1f; hold median %.1f max %.1f; settled %s"
+                  % (contact, np.median(cpu[:60]), cpu[:60].max(), np.median(cpu[60:]), cpu[60:].max(),
+                     "after %d updates of holding" % (settled + 1) if settled is not None else "not within 60"))
+
+
+if __name__ == "__main__":
+    main()
