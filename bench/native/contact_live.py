@@ -14,22 +14,14 @@ which the pose settled. Needs numpy.
 """
 
 import argparse
+import os
 import sys
 import time
 
 import numpy as np
 
-
-def read_obj(path):
-    vertices, faces = [], []
-    with open(path) as f:
-        for line in f:
-            parts = line.split()
-            if parts and parts[0] == "v":
-                vertices.append([float(x) for x in parts[1:4]])
-            elif parts and parts[0] == "f":
-                faces.append([int(p.split("/")[0]) - 1 for p in parts[1:]])
-    return np.array(vertices), np.array(faces, np.int32)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from volume_table import read_obj  # noqa: E402
 
 
 def main():
@@ -42,7 +34,8 @@ def main():
     sys.path.insert(0, args.module_dir)
     import _arap_native as arap
 
-    rest, faces = read_obj(args.mesh)
+    vertices, faces = read_obj(args.mesh)
+    rest, faces = np.array(vertices, dtype=np.float64), np.array(faces, np.int32)
     z = rest[:, 2]
     lo, length = z.min(), z.max() - z.min()
     fixed = np.where(z <= lo + 0.2 * length + 1e-9)[0]
