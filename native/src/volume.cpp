@@ -100,7 +100,7 @@ void VolumeConstraint::bind(const BoundMesh& m, const Triangles& triangles) {
   const Eigen::RowVector3d lo = m.rest.colwise().minCoeff(), hi = m.rest.colwise().maxCoeff();
   reach_ = 0.5 * (hi - lo).norm();
   const double diagonal = (hi - lo).norm();
-  const double tiny_volume = 1e-12 * diagonal * diagonal * diagonal;  // not std::pow: pow@GLIBC_2.29 (the module needs glibc 2.17)
+  const double tiny_volume = 1e-12 * diagonal * diagonal * diagonal;  // not std::pow: see portable_math.h
 
   triangle_begin_.assign(1, 0);
   corners_.clear();

@@ -7,6 +7,7 @@
 
 #include "contact/ccd.h"
 #include "contact/primitives.h"
+#include "portable_math.h"
 
 namespace arap::contact {
 
@@ -65,13 +66,13 @@ double SelfContact::barrier(double d) const {
   if (d >= activation_) return 0;
   if (!(d > 0)) return std::numeric_limits<double>::infinity();
   const double e = d - activation_;
-  return -e * e * std::log(d / activation_);
+  return -e * e * natural_log(d / activation_);
 }
 
 double SelfContact::barrier_slope(double d) const {
   if (d >= activation_) return 0;
   const double e = d - activation_;
-  return -2 * e * std::log(d / activation_) - e * e / d;
+  return -2 * e * natural_log(d / activation_) - e * e / d;
 }
 
 void SelfContact::bind(const Points& rest, const Triangles& triangles, double stiffness) {
