@@ -272,7 +272,11 @@ struct Solver::Impl {
   }
 
   // Energy at x + alpha d (its local step leaves the rotations for the next gradient).
-  double trial(double alpha, SolveStats& stats) {
+  // A trial whose energy would be refused when above `refused_above` may return
+  // any value above it: with contact, one whose surface energy alone is that
+  // high (the barrier only adds) skips the collision check, the costly part.
+  double trial(double alpha, SolveStats& stats,
+               double refused_above = std::numeric_limits<double>::infinity()) {
     for_each_half(static_cast<std::ptrdiff_t>(qn_x.size()), options.threads,
                   [&](std::ptrdiff_t begin, std::ptrdiff_t end, int) {
                     for (std::ptrdiff_t r = begin / 3; r < end / 3; ++r) {
@@ -287,6 +291,9 @@ struct Solver::Impl {
       if (!on_constraint) return std::numeric_limits<double>::infinity();
     }
     if (!contact.active()) return local(stats);
+    contact_fraction = 1;
+    const double surface = local_without_contact(stats);
+    if (!(surface <= refused_above)) return surface;
     // Reached from qn_x in a straight line only if no watched pair comes within the gap on the way.
     const auto t = Clock::now();
     const contact::SelfContact::Step step = contact.evaluate(contact_from.data(), state.data());
@@ -296,7 +303,7 @@ struct Solver::Impl {
       ++stats.contact_steps_cut;
       return std::numeric_limits<double>::infinity();
     }
-    return local_without_contact(stats) + step.energy;
+    return surface + step.energy;
   }
 
   // The next, shorter trial step after `alpha` failed: cut to the safe share
@@ -344,21 +351,23 @@ struct Solver::Impl {
   double quasi_newton_step(double energy, double slope, bool& stuck, SolveStats& stats) {
     stuck = false;
     bool plain = qn_plain;
-    double alpha = 1, next = trial(alpha, stats);
+    // What each trial must not exceed to be taken: the Armijo bound, or for the plain step a lower energy.
+    auto bound = [&](double a) { return plain ? energy : energy + kArmijo * a * slope; };
+    double alpha = 1, next = trial(alpha, stats, bound(alpha));
     for (int k = 1; k < kLineSearchTrials && !plain && !(next <= energy + kArmijo * alpha * slope); ++k) {
       // Minimum of the parabola through E(0), E'(0) and E(alpha), kept in [alpha / 10, alpha / 2].
       const double curvature = next - energy - slope * alpha;
       const double shorter = curvature > 0 ? -slope * alpha * alpha / (2 * curvature) : 0.5 * alpha;
       alpha = shorter_step(alpha, std::clamp(shorter, 0.1 * alpha, 0.5 * alpha));
       ++stats.line_search_steps;
-      next = trial(alpha, stats);
+      next = trial(alpha, stats, bound(alpha));
     }
     if (!plain && !(next <= energy + kArmijo * alpha * slope)) {
       ++stats.quasi_newton_resets;
       lbfgs.clear();
       plain_direction(stats);
       alpha = 1;
-      next = trial(alpha, stats);
+      next = trial(alpha, stats, energy);
     }
     // The plain step lowers the energy on the tangent plane; its return onto the
     // volume constraint is of second order in the step: a shorter step always does.
@@ -366,7 +375,7 @@ struct Solver::Impl {
     for (int k = 0; (volume.active() || contact.active()) && k < kVolumeBacktracks && !(next <= energy); ++k) {
       alpha = shorter_step(alpha, 0.5 * alpha);
       ++stats.line_search_steps;
-      next = trial(alpha, stats);
+      next = trial(alpha, stats, energy);
     }
     if (!(next <= energy)) {
       // Only at a stationary point to rounding: stay where we were.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <utility>
 
 #include "contact/ccd.h"
 #include "contact/primitives.h"
@@ -16,11 +17,17 @@ namespace {
 constexpr int kLeafSize = 4;
 // The pairs near enough to matter are listed with a margin (in mean edge
 // lengths; a Verlet list): the list holds while no vertex has moved more than
-// half the margin since it was made. A step longer than that is checked in
+// half the margin since it was made, or while the motion relative to the
+// surface around each vertex stays within the room between the pairs
+// (relative_motion.h). A step longer than half the margin is checked in
 // pieces, at most kMostPieces (beyond, the pieces are longer and the list is
 // made for each).
 constexpr double kMarginShare = 0.5;
 constexpr int kMostPieces = 256;
+// Triangles per cluster of the relative-motion bound, at least; the clusters are
+// at most about kMostClusters (their pairs are checked on every move).
+constexpr int kClusterTriangles = 16;
+constexpr int kMostClusters = 512;
 
 std::uint64_t key(int a, int b) { return (static_cast<std::uint64_t>(a) << 32) | static_cast<std::uint32_t>(b); }
 std::uint64_t sorted_key(int a, int b) { return a < b ? key(a, b) : key(b, a); }
@@ -127,6 +134,7 @@ void SelfContact::bind(const Points& rest, const Triangles& triangles, double st
   triangle_box_.resize(triangles.rows());
   leaf_box_.resize(triangles.rows());
   build_tree(rest);
+  make_clusters(static_cast<int>(rest.rows()));
 
   // Pairs near at rest are not watched; triangle pairs that cross at rest are remembered.
   const double* P = rest.data();
@@ -153,6 +161,39 @@ void SelfContact::bind(const Points& rest, const Triangles& triangles, double st
     if (triangles_cross(P, f, g)) rest_crossing_.push_back(k);
   }
   std::sort(rest_crossing_.begin(), rest_crossing_.end());
+}
+
+// Clusters of the relative-motion bound: the subtrees of the BVH with at most
+// `most` triangles; a vertex belongs to its first triangle's.
+void SelfContact::make_clusters(int vertex_count) {
+  const int triangle_count = static_cast<int>(triangles_.rows());
+  const int most = std::max(kClusterTriangles, (triangle_count + kMostClusters - 1) / kMostClusters);
+  std::vector<int> size(nodes_.size(), 0), cluster_of_triangle(triangle_count, -1);
+  for (int n = static_cast<int>(nodes_.size()) - 1; n >= 0; --n)
+    size[n] = nodes_[n].left < 0 ? nodes_[n].count : size[nodes_[n].left] + size[nodes_[n].right];
+  int clusters = 0;
+  std::vector<std::pair<int, int>> todo = {{0, -1}};  // node, the cluster it is in (-1: none yet)
+  while (!todo.empty()) {
+    auto [n, cluster] = todo.back();
+    todo.pop_back();
+    if (cluster < 0 && size[n] <= most) cluster = clusters++;
+    const Node& node = nodes_[n];
+    if (node.left < 0) {
+      for (int k = 0; k < node.count; ++k) cluster_of_triangle[leaf_triangles_[node.first + k]] = cluster;
+    } else {
+      todo.emplace_back(node.left, cluster);
+      todo.emplace_back(node.right, cluster);
+    }
+  }
+  // Numbered again over the clusters that hold a vertex.
+  std::vector<int> cluster_of(vertex_count, -1), number(clusters, -1);
+  int used = 0;
+  for (int v : surface_vertices_) {
+    int& k = number[cluster_of_triangle[first_triangle_of_vertex_[v]]];
+    if (k < 0) k = used++;
+    cluster_of[v] = k;
+  }
+  relative_.bind(std::move(cluster_of), used, surface_vertices_, triangles_.data(), triangle_count);
 }
 
 void SelfContact::build_tree(const Points& rest) {
@@ -302,7 +343,8 @@ SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1) {
     return step;
   }
   // A long move is checked in pieces no vertex moves more than half the margin
-  // in: the list of near pairs made at a piece's start then holds for all of it.
+  // in: the list of near pairs made at a piece's start then holds for all of it
+  // (and, when the piece moves whole regions along together, often for more).
   double longest = 0;
   for (int v : surface_vertices_) longest = std::max(longest, (row(P1, v) - row(P0, v)).squaredNorm());
   longest = std::sqrt(longest);
@@ -371,24 +413,29 @@ void SelfContact::sweep(const double* P0, const double* P1, bool moving, Step& s
     p.slope = stiffness_ * barrier_slope(d);
     active_.push_back(p);
   };
-  // A pair whose distance where the list was made, less how far its two sides
-  // can have moved since, stays beyond the activation distance is skipped.
-  auto far = [&](double listed_distance, double side_a, double side_b) {
-    return listed_distance - side_a - side_b >= activation_;
+  // How far vertices a and b can have come nearer each other since the list was made.
+  auto closer = [&](int a, int b) { return relative_list_ ? relative_.bound(a, b) : moved_[a] + moved_[b]; };
+  // A pair whose distance where the list was made, less that for any of its
+  // vertex pairs, stays beyond the activation distance is skipped.
+  auto far = [&](double listed_distance, const int v[4], int sides) {
+    double most = 0;
+    for (int i = 0; i < sides; ++i)
+      for (int j = sides; j < 4; ++j) most = std::max(most, closer(v[i], v[j]));
+    return listed_distance - most >= activation_;
   };
-  const double within = activation_ + 2 * most_moved_;
+  const double within = activation_ + (relative_list_ ? relative_.largest_bound() : 2 * most_moved_);
   for (const NearPair& n : near_vt_) {
     if (n.distance >= within) break;
     const int f = static_cast<int>(n.key & 0xffffffffu);
     const int v[4] = {static_cast<int>(n.key >> 32), triangles_(f, 0), triangles_(f, 1), triangles_(f, 2)};
-    if (far(n.distance, moved_[v[0]], std::max({moved_[v[1]], moved_[v[2]], moved_[v[3]]}))) continue;
+    if (far(n.distance, v, 1)) continue;
     consider(v, true);
   }
   for (const NearPair& n : near_ee_) {
     if (n.distance >= within) break;
     const int a = static_cast<int>(n.key >> 32), b = static_cast<int>(n.key & 0xffffffffu);
     const int v[4] = {edges_[2 * a], edges_[2 * a + 1], edges_[2 * b], edges_[2 * b + 1]};
-    if (far(n.distance, std::max(moved_[v[0]], moved_[v[1]]), std::max(moved_[v[2]], moved_[v[3]]))) continue;
+    if (far(n.distance, v, 2)) continue;
     consider(v, false);
   }
   if (step.fraction < 1) {
@@ -413,22 +460,26 @@ void SelfContact::add_gradient(double* gradient) const {
       for (int c = 0; c < 3; ++c) gradient[3 * p.v[k] + c] += p.slope * p.w[k] * p.dir[c];
 }
 
-// Whether the list holds for the move P0 -> P1; moved_ then bounds how far
-// each vertex is from where the list was made, anywhere on the move.
-// Whether the list holds for the move P0 -> P1; moved_ then bounds how far
-// each vertex is from where the list was made, anywhere on the move.
+// Whether the list holds for the move P0 -> P1: every vertex within half the
+// margin of where the list was made (moved_ then bounds how far, anywhere on
+// the move), or else the motion relative to the clusters' within their room.
 bool SelfContact::listed(const double* P0, const double* P1) {
   if (!list_made_) return false;
   const double reach2 = 0.25 * list_margin_ * list_margin_;
   most_moved_ = 0;
+  bool near = true;
   for (int v : surface_vertices_) {
     const Vec3 at = row(listed_at_.data(), v);
     const double m2 = std::max((row(P0, v) - at).squaredNorm(), (row(P1, v) - at).squaredNorm());
-    if (m2 > reach2) return false;
+    if (m2 > reach2) {
+      near = false;
+      break;
+    }
     moved_[v] = std::sqrt(m2);
     most_moved_ = std::max(most_moved_, moved_[v]);
   }
-  return true;
+  relative_list_ = !near;
+  return near || relative_.holds(P0, P1);
 }
 
 // The watched pairs closer than activation + margin at P0; the margin grows
@@ -437,6 +488,7 @@ void SelfContact::make_list(const double* P0, const double* P1) {
   double longest = 0;
   for (int v : surface_vertices_) longest = std::max(longest, (row(P1, v) - row(P0, v)).squaredNorm());
   list_margin_ = std::max(margin_, 2.001 * std::sqrt(longest));
+  relative_.set_reference(P0, list_margin_, activation_);
   refit(P0, P0, 0.5 * (activation_ + list_margin_));
   collect_triangle_pairs();
   collect_primitive_pairs();

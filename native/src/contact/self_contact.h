@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "arap/types.h"
+#include "contact/relative_motion.h"
 
 namespace arap::contact {
 
@@ -73,6 +74,7 @@ class SelfContact {
     double slope;   // kappa b'(d)
   };
   void build_tree(const Points& rest);
+  void make_clusters(int vertex_count);
   int build_node(std::vector<int>& tris, int begin, int end, const std::vector<Eigen::Vector3d>& centroid);
   void refit(const double* P0, const double* P1, double pad);
   // Candidate triangle pairs (sharing no vertex, boxes overlapping) into tri_pairs_.
@@ -113,6 +115,8 @@ class SelfContact {
   std::vector<double> listed_at_;                 // 3 per vertex: where the list was made
   std::vector<double> moved_;                     // per vertex: how far from there, on the move checked
   double most_moved_ = 0;
+  RelativeMotion relative_;     // the list's other criterion (relative_motion.h)
+  bool relative_list_ = false;  // the move checked last is covered by it (moved_ is not set then)
   double list_margin_ = 0;
   bool list_made_ = false;
   long lists_made_ = 0;
