@@ -117,6 +117,12 @@ void SelfContact::bind(const Points& rest, const Triangles& triangles, double st
       first_triangle_of_vertex_[triangles(f, k)] = f;
       first_triangle_of_edge_[triangle_edges_[3 * f + k]] = f;
     }
+  owns_.assign(triangles.rows(), 0);
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      if (first_triangle_of_vertex_[triangles(f, k)] == f) owns_[f] |= 1u << k;
+      if (first_triangle_of_edge_[triangle_edges_[3 * f + k]] == f) owns_[f] |= 8u << k;
+    }
   std::vector<char> on_surface(rest.rows(), 0);
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)
     for (int k = 0; k < 3; ++k) on_surface[triangles(f, k)] = 1;
@@ -132,6 +138,7 @@ void SelfContact::bind(const Points& rest, const Triangles& triangles, double st
   stiffness_ = stiffness;
   vertex_box_.resize(rest.rows());
   triangle_box_.resize(triangles.rows());
+  edge_box_.resize(edges_.size() / 2);
   leaf_box_.resize(triangles.rows());
   build_tree(rest);
   make_clusters(static_cast<int>(rest.rows()));
@@ -238,6 +245,10 @@ void SelfContact::refit(const double* P0, const double* P1, double pad) {
       b.lo[c] = std::min(a, z) - pad, b.hi[c] = std::max(a, z) + pad;
     }
   }
+  for (size_t e = 0; e < edge_box_.size(); ++e) {
+    edge_box_[e] = vertex_box_[edges_[2 * e]];
+    grow(edge_box_[e], vertex_box_[edges_[2 * e + 1]]);
+  }
   for (Eigen::Index f = 0; f < triangles_.rows(); ++f) {
     Box& b = triangle_box_[f];
     b = vertex_box_[triangles_(f, 0)];
@@ -308,27 +319,27 @@ void SelfContact::collect_primitive_pairs() {
     const int* tg = &triangles_(g, 0);
     for (int pass = 0; pass < 2; ++pass) {
       const int a = pass == 0 ? f : g, b = pass == 0 ? g : f;
+      const int* ta = pass == 0 ? tf : tg;
       const int* tb = pass == 0 ? tg : tf;
+      const unsigned owned = owns_[a];
       for (int i = 0; i < 3; ++i) {
-        const int v = triangles_(a, i);
-        if (first_triangle_of_vertex_[v] != a || v == tb[0] || v == tb[1] || v == tb[2]) continue;
+        const int v = ta[i];
+        if (!(owned >> i & 1u) || v == tb[0] || v == tb[1] || v == tb[2]) continue;
         if (overlap(vertex_box_[v], triangle_box_[b])) vt_.push_back(key(v, b));
       }
     }
+    const unsigned owned_f = owns_[f] >> 3, owned_g = owns_[g] >> 3;
+    if (!owned_f || !owned_g) continue;
     for (int i = 0; i < 3; ++i) {
+      if (!(owned_f >> i & 1u)) continue;
       const int ea = triangle_edges_[3 * f + i];
-      if (first_triangle_of_edge_[ea] != f) continue;
       const int a0 = edges_[2 * ea], a1 = edges_[2 * ea + 1];
-      Box box_a = vertex_box_[a0];
-      grow(box_a, vertex_box_[a1]);
       for (int j = 0; j < 3; ++j) {
+        if (!(owned_g >> j & 1u)) continue;
         const int eb = triangle_edges_[3 * g + j];
-        if (first_triangle_of_edge_[eb] != g) continue;
         const int b0 = edges_[2 * eb], b1 = edges_[2 * eb + 1];
         if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) continue;
-        Box box_b = vertex_box_[b0];
-        grow(box_b, vertex_box_[b1]);
-        if (overlap(box_a, box_b)) ee_.push_back(sorted_key(ea, eb));
+        if (overlap(edge_box_[ea], edge_box_[eb])) ee_.push_back(sorted_key(ea, eb));
       }
     }
   }

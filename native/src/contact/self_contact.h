@@ -94,6 +94,8 @@ class SelfContact {
   std::vector<int> triangle_edges_;  // 3 per triangle
   std::vector<int> surface_vertices_;
   std::vector<int> first_triangle_of_vertex_, first_triangle_of_edge_;
+  // Per triangle: bit k (k < 3) when it is its vertex k's first triangle, bit 3 + k its edge k's.
+  std::vector<std::uint8_t> owns_;
   std::vector<Node> nodes_;
   std::vector<int> leaf_triangles_;
   double gap_ = 0, activation_ = 0, margin_ = 0, stiffness_ = 0;
@@ -103,6 +105,7 @@ class SelfContact {
   // Scratch of evaluate(), kept between calls (no allocation once grown).
   std::vector<Box> vertex_box_;  // per vertex (swept, padded); only surface vertices are set
   std::vector<Box> triangle_box_;
+  std::vector<Box> edge_box_;
   std::vector<Box> leaf_box_;    // triangle_box_ in the order of leaf_triangles_
   std::vector<std::uint64_t> tri_pairs_, vt_, ee_;
   std::vector<std::pair<int, int>> stack_;
