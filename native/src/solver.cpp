@@ -11,6 +11,7 @@
 
 #include "anderson.h"
 #include "bound_mesh.h"
+#include "contact/handle_moves.h"
 #include "contact/self_contact.h"
 #include "infill.h"
 #include "infill_volume.h"
@@ -177,6 +178,8 @@ struct Solver::Impl {
   contact::SelfContact contact;
   Contact bound_contact = Contact::None;
   Points contact_from, contact_goal;
+  contact::HandleMoves handle_moves;  // where the constrained vertices go in each round of a forced pose
+  Points round_goal;                  // that round's positions of the user's constrained vertices
   bool contact_clear = false;
   double contact_fraction = 1;  // the safe share of the last trial's step (1: the trial was not cut)
   // Rounds toward the same targets that gained almost nothing, counted across
@@ -566,16 +569,18 @@ struct Solver::Impl {
     }
   }
 
-  // The user's constrained vertices moved `share` of the way to their targets,
+  // The user's constrained vertices moved `share` of the way to their targets
+  // (each connected part turning as a rigid body, see contact/handle_moves.h),
   // the free ones by the harmonic extension of that move: L_ff d_f = sum_c w_fc d_c.
   void carry_targets_through(double share, SolveStats& stats) {
     const auto t = Clock::now();
+    const Points& goal = share >= 1 ? targets : round_goal;
+    if (share < 1) handle_moves.toward(state, targets, share, round_goal);
     std::fill(rhs.begin(), rhs.end(), 0.0);
     for (const Coupling& c : mesh.couplings) {
       if (c.constrained_slot >= mesh.user_constrained) continue;
       const int v = mesh.constrained[c.constrained_slot];
-      for (int d = 0; d < 3; ++d)
-        rhs[3 * c.free_row + d] += c.w * share * (targets(c.constrained_slot, d) - state(v, d));
+      for (int d = 0; d < 3; ++d) rhs[3 * c.free_row + d] += c.w * (goal(c.constrained_slot, d) - state(v, d));
     }
     laplacian.solve_in_place(rhs.data(), work, options.threads);
     for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
@@ -583,10 +588,7 @@ struct Solver::Impl {
     if (share >= 1) {
       apply_targets(targets, state);
     } else {
-      for (int slot = 0; slot < mesh.user_constrained; ++slot) {
-        const int v = mesh.constrained[slot];
-        state.row(v) += share * (targets.row(slot) - state.row(v));
-      }
+      for (int slot = 0; slot < mesh.user_constrained; ++slot) state.row(mesh.constrained[slot]) = round_goal.row(slot);
       couple(state);
     }
     stats.linear_solve_ms += ms_since(t);
@@ -695,6 +697,8 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
     next->bound_contact = options.contact;
     if (options.contact == Contact::Self) {
       next->contact.bind(next->mesh.rest, next->triangles, contact_stiffness(next->mesh));
+      next->handle_moves.bind(next->mesh.constrained, next->mesh.user_constrained, next->triangles, n);
+      next->round_goal.resize(next->mesh.user_constrained, 3);
       next->contact_from = next->mesh.rest;
       next->contact_goal = next->mesh.rest;
     }

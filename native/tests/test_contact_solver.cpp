@@ -127,8 +127,45 @@ double mean_edge_length(const Points& P, const Triangles& T) {
   return sum / (3.0 * T.rows());
 }
 
+// The bar's top turned half a turn about the bar's own axis, the base held:
+// the handle's vertices cannot go there in straight lines (those meet at the
+// axis), but turning, they can. (Two ways round are equally short; either will do.)
+Scene half_turned_bar(int vertices) {
+  Scene s = bent_bar(Eigen::Vector3d::Zero(), vertices);
+  Eigen::RowVector3d axis_point = Eigen::RowVector3d::Zero();
+  for (size_t k = s.fixed_count; k < s.constrained.size(); ++k) axis_point += s.rest.row(s.constrained[k]);
+  axis_point /= static_cast<double>(s.constrained.size() - s.fixed_count);
+  const Eigen::Matrix3d half_turn = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  for (size_t k = s.fixed_count; k < s.constrained.size(); ++k) {
+    Eigen::RowVector3d offset = s.rest.row(s.constrained[k]) - axis_point;
+    offset(2) = 0;
+    s.targets.row(k) = s.rest.row(s.constrained[k]) - offset + (half_turn * offset.transpose()).transpose();
+  }
+  return s;
+}
+
 // Folded into itself: the top pulled sideways and down past the fixed base.
 const Eigen::Vector3d kFold(0.5, 0.0, -0.6);
+
+TEST(ContactSolver, AHandleTurnedHalfATurnGetsThere) {
+  const Scene s = half_turned_bar(600);
+  const Result plain = solve(s, with_contact(Contact::None));
+  EXPECT_LT(largest_constraint_error(s, plain.positions), 1e-9);
+  for (bool warm : {false, true}) {
+    Options o = with_contact(Contact::Self);
+    Solver solver;
+    solver.bind(s.rest, s.triangles, s.constrained, o);
+    if (warm) {
+      // Live: from the rest pose on screen, the whole turn in one update.
+      solver.options().init = arap::InitialGuess::WarmStart;
+      solver.set_positions(s.rest);
+    }
+    const SolveStats stats = solver.solve(s.targets);
+    EXPECT_EQ(stats.contact_reached, 1.0) << (warm ? "warm" : "cold");
+    EXPECT_LT(largest_constraint_error(s, solver.positions()), 1e-9) << (warm ? "warm" : "cold");
+    EXPECT_EQ(crossing_pairs(solver.positions(), s.triangles).size(), 0u) << (warm ? "warm" : "cold");
+  }
+}
 
 TEST(ContactSolver, ABarFoldedIntoItselfCrossesWithoutContactAndNotWithIt) {
   const Scene s = bent_bar(kFold);

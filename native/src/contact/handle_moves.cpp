@@ -1,0 +1,56 @@
+#include "contact/handle_moves.h"
+
+#include <Eigen/Dense>
+#include <Eigen/Geometry>
+
+#include "union_find.h"
+
+namespace arap::contact {
+
+void HandleMoves::bind(const std::vector<int>& constrained, int slots, const Triangles& triangles, int vertex_count) {
+  constrained_.assign(constrained.begin(), constrained.begin() + slots);
+  std::vector<int> slot_of(vertex_count, -1);
+  for (int s = 0; s < slots; ++s) slot_of[constrained_[s]] = s;
+  UnionFind parts(slots);
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = slot_of[triangles(f, k)], b = slot_of[triangles(f, (k + 1) % 3)];
+      if (a >= 0 && b >= 0) parts.join(a, b);
+    }
+  std::vector<int> part_of;
+  const int count = parts.label(std::vector<char>(slots, 1), part_of);
+  parts_.assign(count, {});
+  for (int s = 0; s < slots; ++s) parts_[part_of[s]].push_back(s);
+}
+
+void HandleMoves::toward(const Points& state, const Points& targets, double share, Points& goal) const {
+  for (const std::vector<int>& part : parts_) {
+    Eigen::Vector3d from = Eigen::Vector3d::Zero(), to = Eigen::Vector3d::Zero();
+    for (int s : part) from += state.row(constrained_[s]).transpose(), to += targets.row(s).transpose();
+    from /= static_cast<double>(part.size());
+    to /= static_cast<double>(part.size());
+    // The rotation that best carries the part's offsets from its centre onto the targets' (Kabsch).
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+    for (int s : part)
+      covariance += (state.row(constrained_[s]).transpose() - from) * (targets.row(s).transpose() - to).transpose();
+    Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();
+    if (part.size() >= 3 && covariance.norm() > 0) {
+      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(covariance, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      Eigen::Matrix3d u = svd.matrixU();
+      if ((svd.matrixV() * u.transpose()).determinant() < 0) u.col(2) *= -1;
+      turn = svd.matrixV() * u.transpose();
+    }
+    // share of the turn about the same axis, share of the shift, share of what the fit leaves over.
+    const Eigen::AngleAxisd whole(turn);
+    const Eigen::Matrix3d partial = Eigen::AngleAxisd(share * whole.angle(), whole.axis()).toRotationMatrix();
+    for (int s : part) {
+      const Eigen::Vector3d offset = state.row(constrained_[s]).transpose() - from;
+      const Eigen::Vector3d left_over = targets.row(s).transpose() - (turn * offset + to);
+      goal.row(s) = (partial * offset + from + share * (to - from) + share * left_over).transpose();
+    }
+    if (share >= 1)
+      for (int s : part) goal.row(s) = targets.row(s);
+  }
+}
+
+}  // namespace arap::contact

@@ -1,0 +1,74 @@
+// Where a forced pose's rounds take the constrained vertices
+// (contact/handle_moves.h): a part that turns keeps its shape on the way,
+// each connected part moves on its own, and the whole share lands on the targets.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <vector>
+
+#include "contact/handle_moves.h"
+
+namespace {
+
+using arap::Points;
+using arap::Triangles;
+
+// Two separate squares (two triangles each): vertices 0-3 at z = 0, 4-7 at z = 5.
+struct TwoSquares {
+  Points rest{8, 3};
+  Triangles triangles{4, 3};
+  std::vector<int> constrained{0, 1, 2, 3, 4, 5, 6, 7};
+  TwoSquares() {
+    for (int k = 0; k < 8; ++k) rest.row(k) << (k % 4 == 1 || k % 4 == 2), (k % 4 >= 2), k < 4 ? 0.0 : 5.0;
+    triangles << 0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7;
+  }
+};
+
+TEST(ContactHandleMoves, APartTurnsAsARigidBodyAndLandsOnItsTargets) {
+  const TwoSquares s;
+  arap::contact::HandleMoves moves;
+  moves.bind(s.constrained, 8, s.triangles, 8);
+  // The first square turned half a turn about its centre's vertical axis and lifted; the second shifted.
+  const Eigen::RowVector3d centre(0.5, 0.5, 0.0);
+  const Eigen::Matrix3d half = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  Points targets = s.rest;
+  for (int k = 0; k < 4; ++k)
+    targets.row(k) = ((half * (s.rest.row(k) - centre).transpose()).transpose() + centre) + Eigen::RowVector3d(0, 0, 1);
+  for (int k = 4; k < 8; ++k) targets.row(k) += Eigen::RowVector3d(2, 0, 0);
+  Points goal(8, 3);
+  for (double share : {0.25, 0.5, 0.75}) {
+    moves.toward(s.rest, targets, share, goal);
+    // The turning square keeps its shape (a straight line would shrink it to a point at 0.5) ...
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b)
+        EXPECT_NEAR((goal.row(a) - goal.row(b)).norm(), (s.rest.row(a) - s.rest.row(b)).norm(), 1e-12) << share;
+    // ... its centre moves along the straight line, and it has turned share of the half turn.
+    Eigen::RowVector3d mid = Eigen::RowVector3d::Zero();
+    for (int k = 0; k < 4; ++k) mid += goal.row(k) / 4;
+    EXPECT_LT((mid - (centre + Eigen::RowVector3d(0, 0, share))).norm(), 1e-12) << share;
+    const Eigen::RowVector3d edge = goal.row(1) - goal.row(0);
+    EXPECT_NEAR(std::abs(std::atan2(edge(1), edge(0))), share * M_PI, 1e-9) << share;
+    // The other square only shifts, on its own.
+    for (int k = 4; k < 8; ++k)
+      EXPECT_LT((goal.row(k) - (s.rest.row(k) + share * Eigen::RowVector3d(2, 0, 0))).norm(), 1e-12) << share;
+  }
+  moves.toward(s.rest, targets, 1.0, goal);
+  EXPECT_EQ(goal, targets);
+}
+
+TEST(ContactHandleMoves, WhatARigidFitLeavesOverMovesInProportion) {
+  const TwoSquares s;
+  arap::contact::HandleMoves moves;
+  moves.bind(s.constrained, 8, s.triangles, 8);
+  Points targets = s.rest;
+  targets.row(2) += Eigen::RowVector3d(0.3, 0.3, 0.0);  // the first square stretched at one corner
+  Points goal(8, 3), almost(8, 3);
+  moves.toward(s.rest, targets, 0.0, goal);
+  EXPECT_LT((goal - s.rest).norm(), 1e-12);
+  moves.toward(s.rest, targets, 1.0 - 1e-9, almost);
+  EXPECT_LT((almost - targets).norm(), 1e-8);
+}
+
+}  // namespace
