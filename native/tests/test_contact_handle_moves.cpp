@@ -1,6 +1,7 @@
 // Where a forced pose's rounds take the constrained vertices
 // (contact/handle_moves.h): a part that turns keeps its shape on the way,
-// each connected part moves on its own, and the whole share lands on the targets.
+// each part moves on its own (a fixed group beside a handle too), and the
+// whole share lands on the targets.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -69,6 +70,23 @@ TEST(ContactHandleMoves, WhatARigidFitLeavesOverMovesInProportion) {
   EXPECT_LT((goal - s.rest).norm(), 1e-12);
   moves.toward(s.rest, targets, 1.0 - 1e-9, almost);
   EXPECT_LT((almost - targets).norm(), 1e-8);
+}
+
+TEST(ContactHandleMoves, AFixedGroupStaysWhileTheHandleBesideItMovesAway) {
+  // One strip of triangles: vertices 0-3 fixed (targets where they are), 4-7 beside them moved far.
+  Points rest(8, 3);
+  for (int k = 0; k < 8; ++k) rest.row(k) << k / 2, k % 2, 0.0;
+  Triangles triangles(6, 3);
+  for (int t = 0; t < 6; ++t) triangles.row(t) << t, t + 1, t + 2;
+  std::vector<int> constrained{0, 1, 2, 3, 4, 5, 6, 7};
+  arap::contact::HandleMoves moves;
+  moves.bind(constrained, 8, triangles, 8);
+  Points targets = rest;
+  for (int k = 4; k < 8; ++k) targets.row(k) += Eigen::RowVector3d(0.0, 0.0, 10.0);
+  Points goal(8, 3);
+  moves.toward(rest, targets, 0.5, goal);
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(goal.row(k), rest.row(k)) << k;
+  for (int k = 4; k < 8; ++k) EXPECT_LT((goal.row(k) - (rest.row(k) + Eigen::RowVector3d(0, 0, 5))).norm(), 1e-12) << k;
 }
 
 }  // namespace

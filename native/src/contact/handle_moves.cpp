@@ -11,20 +11,26 @@ void HandleMoves::bind(const std::vector<int>& constrained, int slots, const Tri
   constrained_.assign(constrained.begin(), constrained.begin() + slots);
   std::vector<int> slot_of(vertex_count, -1);
   for (int s = 0; s < slots; ++s) slot_of[constrained_[s]] = s;
-  UnionFind parts(slots);
+  edges_.clear();
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)
     for (int k = 0; k < 3; ++k) {
       const int a = slot_of[triangles(f, k)], b = slot_of[triangles(f, (k + 1) % 3)];
-      if (a >= 0 && b >= 0) parts.join(a, b);
+      if (a >= 0 && b >= 0) edges_.push_back(a), edges_.push_back(b);  // an edge of two triangles twice: harmless
     }
-  std::vector<int> part_of;
-  const int count = parts.label(std::vector<char>(slots, 1), part_of);
-  parts_.assign(count, {});
-  for (int s = 0; s < slots; ++s) parts_[part_of[s]].push_back(s);
 }
 
 void HandleMoves::toward(const Points& state, const Points& targets, double share, Points& goal) const {
-  for (const std::vector<int>& part : parts_) {
+  const int slots = static_cast<int>(constrained_.size());
+  UnionFind joined(slots);
+  for (size_t e = 0; e < edges_.size(); e += 2) {
+    const int a = edges_[e], b = edges_[e + 1];
+    const Eigen::RowVector3d xa = state.row(constrained_[a]), xb = state.row(constrained_[b]);
+    if (((targets.row(a) - xa) - (targets.row(b) - xb)).norm() <= 2 * (xa - xb).norm()) joined.join(a, b);
+  }
+  std::vector<int> part_of;
+  std::vector<std::vector<int>> parts(joined.label(std::vector<char>(slots, 1), part_of));
+  for (int s = 0; s < slots; ++s) parts[part_of[s]].push_back(s);
+  for (const std::vector<int>& part : parts) {
     Eigen::Vector3d from = Eigen::Vector3d::Zero(), to = Eigen::Vector3d::Zero();
     for (int s : part) from += state.row(constrained_[s]).transpose(), to += targets.row(s).transpose();
     from /= static_cast<double>(part.size());
