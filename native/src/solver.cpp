@@ -570,7 +570,7 @@ struct Solver::Impl {
   }
 
   // The user's constrained vertices moved `share` of the way to their targets
-  // (each connected part turning as a rigid body, see contact/handle_moves.h),
+  // (each part that moves as one turning as a rigid body, see contact/handle_moves.h),
   // the free ones by the harmonic extension of that move: L_ff d_f = sum_c w_fc d_c.
   void carry_targets_through(double share, SolveStats& stats) {
     const auto t = Clock::now();

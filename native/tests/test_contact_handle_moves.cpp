@@ -59,7 +59,7 @@ TEST(ContactHandleMoves, APartTurnsAsARigidBodyAndLandsOnItsTargets) {
   EXPECT_EQ(goal, targets);
 }
 
-TEST(ContactHandleMoves, WhatARigidFitLeavesOverMovesInProportion) {
+TEST(ContactHandleMoves, WhatARigidFitLeavesOverArrivesWithTheLastShare) {
   const TwoSquares s;
   arap::contact::HandleMoves moves;
   moves.bind(s.constrained, 8, s.triangles, 8);

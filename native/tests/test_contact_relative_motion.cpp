@@ -31,8 +31,8 @@ struct Strip {
 TEST(ContactRelativeMotion, TheBoundHoldsAnywhereOnTheMove) {
   const Strip strip(60, 7);
   RelativeMotion motion;
-  motion.bind(strip.cluster_of, strip.clusters(), strip.surface, strip.triangles.data(),
-              static_cast<long>(strip.triangles.size() / 3));
+  motion.bind(strip.cluster_of, strip.clusters(), strip.surface);
+  const long triangle_count = static_cast<long>(strip.triangles.size() / 3);
   std::mt19937 random(11);
   std::normal_distribution<double> normal(0.0, 1.0);
   int checked = 0;
@@ -46,8 +46,9 @@ TEST(ContactRelativeMotion, TheBoundHoldsAnywhereOnTheMove) {
       P0.row(v) = reference.row(v) + drift0 * (1 + 0.01 * v) + noise * Eigen::RowVector3d(normal(random), normal(random), normal(random));
       P1.row(v) = reference.row(v) + drift1 * (1 - 0.02 * v) + noise * Eigen::RowVector3d(normal(random), normal(random), normal(random));
     }
-    motion.set_reference(reference.data(), 1e6, 0.0);  // room enough: the bound itself is under test
-    ASSERT_TRUE(motion.holds(P0.data(), P1.data()));
+    // Room enough: the bound itself is under test.
+    motion.set_reference(reference.data(), strip.triangles.data(), triangle_count, 1e6, 0.0);
+    ASSERT_TRUE(motion.holds(reference.data(), P0.data(), P1.data()));
     for (double t : {0.0, 0.2, 0.5, 0.8, 1.0}) {
       const Rows D = (1 - t) * P0 + t * P1 - reference;
       for (int a = 0; a < strip.n; ++a)
@@ -70,26 +71,26 @@ TEST(ContactRelativeMotion, TheRoomIsTheGapBetweenClusters) {
     if (v / 20 == (v + 2) / 20) triangles.insert(triangles.end(), {v, v + 1, v + 2});
   for (int v = 0; v < n; ++v) cluster_of.push_back(v / 20), surface.push_back(v);
   RelativeMotion motion;
-  motion.bind(cluster_of, 2, surface, triangles.data(), static_cast<long>(triangles.size() / 3));
+  motion.bind(cluster_of, 2, surface);
   Rows reference(n, 3);
   for (int v = 0; v < n; ++v) reference.row(v) << (v % 20) * 0.1, (v % 2) * 0.1, v < 20 ? 0.0 : 1.0;
   const double margin = 0.05, activation = 0.01;
-  motion.set_reference(reference.data(), margin, activation);
+  motion.set_reference(reference.data(), triangles.data(), static_cast<long>(triangles.size() / 3), margin, activation);
   // Everything carried 100 margins along: nothing comes nearer.
   const Rows carried = reference.rowwise() + Eigen::RowVector3d(5.0, -3.0, 2.0);
-  EXPECT_TRUE(motion.holds(reference.data(), carried.data()));
-  EXPECT_TRUE(motion.holds(carried.data(), carried.data()));
+  EXPECT_TRUE(motion.holds(reference.data(), reference.data(), carried.data()));
+  EXPECT_TRUE(motion.holds(reference.data(), carried.data(), carried.data()));
   // The upper strip lowered by half the gap: ten margins, but within the room of 1.0 less the activation.
   Rows lowered = reference;
   for (int v = 20; v < n; ++v) lowered(v, 2) -= 0.5;
-  EXPECT_TRUE(motion.holds(reference.data(), lowered.data()));
+  EXPECT_TRUE(motion.holds(reference.data(), reference.data(), lowered.data()));
   // Lowered to within the activation distance: refused.
   for (int v = 20; v < n; ++v) lowered(v, 2) = 0.005;
-  EXPECT_FALSE(motion.holds(reference.data(), lowered.data()));
+  EXPECT_FALSE(motion.holds(reference.data(), reference.data(), lowered.data()));
   // One vertex squeezed towards its neighbours by more than the margin: refused.
   Rows squeezed = reference;
   squeezed(3, 0) += 2 * margin;
-  EXPECT_FALSE(motion.holds(reference.data(), squeezed.data()));
+  EXPECT_FALSE(motion.holds(reference.data(), reference.data(), squeezed.data()));
 }
 
 }  // namespace

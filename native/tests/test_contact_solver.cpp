@@ -149,8 +149,6 @@ const Eigen::Vector3d kFold(0.5, 0.0, -0.6);
 
 TEST(ContactSolver, AHandleTurnedHalfATurnGetsThere) {
   const Scene s = half_turned_bar(600);
-  const Result plain = solve(s, with_contact(Contact::None));
-  EXPECT_LT(largest_constraint_error(s, plain.positions), 1e-9);
   for (bool warm : {false, true}) {
     Options o = with_contact(Contact::Self);
     Solver solver;
@@ -379,7 +377,7 @@ TEST(ContactPairList, AKeptListSeesWhatAFreshOneSees) {
 // Carrying the whole bar along, several edge lengths per step while it turns
 // slowly, moves no pair much nearer: the motion relative to the clusters stays
 // small, so one list holds for many steps (by the margin alone, each step would
-// need a dozen), and it sees what a fresh list sees.
+// need about sixteen), and it sees what a fresh list sees.
 TEST(ContactPairList, ACarriedAlongMeshKeepsItsList) {
   const Scene s = bent_bar(kFold, 300);
   const Points rest = s.rest / 5.0;

@@ -1,8 +1,8 @@
 #include "contact/handle_moves.h"
 
-#include <Eigen/Dense>
 #include <Eigen/Geometry>
 
+#include "arap/rotation_fit.h"
 #include "union_find.h"
 
 namespace arap::contact {
@@ -35,17 +35,13 @@ void HandleMoves::toward(const Points& state, const Points& targets, double shar
     for (int s : part) from += state.row(constrained_[s]).transpose(), to += targets.row(s).transpose();
     from /= static_cast<double>(part.size());
     to /= static_cast<double>(part.size());
-    // The rotation that best carries the part's offsets from its centre onto the targets' (Kabsch).
+    // The rotation that best carries the part's offsets from its centre onto the targets' (Kabsch):
+    // the local step's fit, for A = sum (target offset)(offset)^T.
     Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
     for (int s : part)
-      covariance += (state.row(constrained_[s]).transpose() - from) * (targets.row(s).transpose() - to).transpose();
+      covariance += (targets.row(s).transpose() - to) * (state.row(constrained_[s]).transpose() - from).transpose();
     Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();
-    if (part.size() >= 3 && covariance.norm() > 0) {
-      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(covariance, Eigen::ComputeFullU | Eigen::ComputeFullV);
-      Eigen::Matrix3d u = svd.matrixU();
-      if ((svd.matrixV() * u.transpose()).determinant() < 0) u.col(2) *= -1;
-      turn = svd.matrixV() * u.transpose();
-    }
+    if (part.size() >= 3 && covariance.norm() > 0) fit_rotation(covariance, turn);
     // share of the turn about the same axis, share of the shift, share of what the fit leaves over.
     const Eigen::AngleAxisd whole(turn);
     const Eigen::Matrix3d partial = Eigen::AngleAxisd(share * whole.angle(), whole.axis()).toRotationMatrix();

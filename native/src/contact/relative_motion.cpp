@@ -7,16 +7,13 @@
 
 namespace arap::contact {
 
-void RelativeMotion::bind(std::vector<int> cluster_of, int clusters, const std::vector<int>& surface_vertices,
-                          const int* triangles, long triangle_count) {
+void RelativeMotion::bind(std::vector<int> cluster_of, int clusters, const std::vector<int>& surface_vertices) {
   cluster_of_ = std::move(cluster_of);
   clusters_ = clusters;
   surface_vertices_ = surface_vertices;
-  triangles_.assign(triangles, triangles + 3 * triangle_count);
   cluster_size_.assign(clusters_, 0);
   for (int v : surface_vertices_) ++cluster_size_[cluster_of_[v]];
   const size_t pairs = static_cast<size_t>(clusters_) * clusters_;
-  reference_.assign(3 * cluster_of_.size(), 0.0);
   room_.assign(pairs, 0.0);
   shift_.assign(pairs, 0.0);
   spread_.assign(cluster_of_.size(), 0.0);
@@ -26,16 +23,15 @@ void RelativeMotion::bind(std::vector<int> cluster_of, int clusters, const std::
   box_.assign(6 * clusters_, 0.0);
 }
 
-void RelativeMotion::set_reference(const double* P, double margin, double activation) {
-  for (int v : surface_vertices_)
-    for (int c = 0; c < 3; ++c) reference_[3 * v + c] = P[3 * v + c];
+void RelativeMotion::set_reference(const double* P, const int* triangles, long triangle_count, double margin,
+                                   double activation) {
   const double inf = std::numeric_limits<double>::infinity();
   for (int k = 0; k < clusters_; ++k)
     for (int c = 0; c < 3; ++c) box_[6 * k + c] = inf, box_[6 * k + 3 + c] = -inf;
   // A cluster's box holds every triangle touching one of its vertices: a primitive
   // with a vertex in the cluster lies inside it.
-  for (size_t f = 0; f < triangles_.size(); f += 3) {
-    const int* t = &triangles_[f];
+  for (long f = 0; f < triangle_count; ++f) {
+    const int* t = triangles + 3 * f;
     for (int i = 0; i < 3; ++i) {
       double* b = &box_[6 * cluster_of_[t[i]]];
       for (int j = 0; j < 3; ++j)
@@ -57,18 +53,18 @@ void RelativeMotion::set_reference(const double* P, double margin, double activa
     }
 }
 
-void RelativeMotion::mean_motion(const double* P, double* into) {
+void RelativeMotion::mean_motion(const double* reference, const double* P, double* into) {
   std::fill(into, into + 3 * clusters_, 0.0);
   for (int v : surface_vertices_)
-    for (int c = 0; c < 3; ++c) into[3 * cluster_of_[v] + c] += P[3 * v + c] - reference_[3 * v + c];
+    for (int c = 0; c < 3; ++c) into[3 * cluster_of_[v] + c] += P[3 * v + c] - reference[3 * v + c];
   for (int k = 0; k < clusters_; ++k)
     for (int c = 0; c < 3; ++c) into[3 * k + c] /= std::max(1, cluster_size_[k]);
 }
 
-bool RelativeMotion::holds(const double* P0, const double* P1) {
+bool RelativeMotion::holds(const double* reference, const double* P0, const double* P1) {
   const bool moving = P0 != P1;
-  mean_motion(P0, motion0_.data());
-  if (moving) mean_motion(P1, motion1_.data());
+  mean_motion(reference, P0, motion0_.data());
+  if (moving) mean_motion(reference, P1, motion1_.data());
   const double* T1 = moving ? motion1_.data() : motion0_.data();
   std::fill(cluster_spread_.begin(), cluster_spread_.end(), 0.0);
   double largest_spread = 0;
@@ -76,7 +72,7 @@ bool RelativeMotion::holds(const double* P0, const double* P1) {
     const int k = cluster_of_[v];
     double s0 = 0, s1 = 0;
     for (int c = 0; c < 3; ++c) {
-      const double r = reference_[3 * v + c];
+      const double r = reference[3 * v + c];
       const double d0 = P0[3 * v + c] - r - motion0_[3 * k + c], d1 = P1[3 * v + c] - r - T1[3 * k + c];
       s0 += d0 * d0, s1 += d1 * d1;
     }

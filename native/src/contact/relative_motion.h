@@ -21,20 +21,19 @@ namespace arap::contact {
 
 class RelativeMotion {
  public:
-  // `cluster_of`: per vertex, its cluster (-1: not on the surface);
-  // `incident`: the triangles (3 vertex indices each) whose boxes a cluster's
-  // box must hold (every triangle touching one of its vertices).
-  void bind(std::vector<int> cluster_of, int clusters, const std::vector<int>& surface_vertices,
-            const int* triangles, long triangle_count);
-  int clusters() const { return clusters_; }
+  // `cluster_of`: per vertex, its cluster (-1: not on the surface).
+  void bind(std::vector<int> cluster_of, int clusters, const std::vector<int>& surface_vertices);
 
-  // The reference (where the list is made, 3 per vertex) and each cluster
-  // pair's room: max(margin, box distance at P - activation).
-  void set_reference(const double* P, double margin, double activation);
+  // Each cluster pair's room for the reference positions P (3 per vertex, where
+  // the list is made): max(margin, box distance at P - activation), a
+  // cluster's box holding every triangle (3 vertex indices each) that touches
+  // one of its vertices.
+  void set_reference(const double* P, const int* triangles, long triangle_count, double margin, double activation);
 
   // Whether the straight move P0 -> P1 stays within every cluster pair's room
-  // (P0 == P1: a state). Then bound(a, b) holds anywhere on the move.
-  bool holds(const double* P0, const double* P1);
+  // (P0 == P1: a state), motions measured from `reference` (the positions
+  // given to set_reference). Then bound(a, b) holds anywhere on the move.
+  bool holds(const double* reference, const double* P0, const double* P1);
   double bound(int a, int b) const {
     return spread_[a] + spread_[b] + shift_[static_cast<std::size_t>(cluster_of_[a]) * clusters_ + cluster_of_[b]];
   }
@@ -42,12 +41,10 @@ class RelativeMotion {
   double largest_bound() const { return largest_bound_; }
 
  private:
-  void mean_motion(const double* P, double* into);  // T_C, 3 per cluster
+  void mean_motion(const double* reference, const double* P, double* into);  // T_C, 3 per cluster
 
   std::vector<int> cluster_of_, surface_vertices_, cluster_size_;
-  std::vector<int> triangles_;  // 3 per triangle
   int clusters_ = 0;
-  std::vector<double> reference_;      // 3 per vertex
   std::vector<double> room_;           // clusters^2
   std::vector<double> shift_;          // clusters^2: largest |T_C - T_D| on the move
   std::vector<double> spread_;         // per vertex: largest s_v on the move

@@ -111,17 +111,17 @@ void SelfContact::bind(const Points& rest, const Triangles& triangles, double st
                                                     edge_keys.begin());
     }
   first_triangle_of_vertex_.assign(rest.rows(), -1);
-  first_triangle_of_edge_.assign(edge_keys.size(), -1);
+  std::vector<int> first_triangle_of_edge(edge_keys.size(), -1);
   for (int f = static_cast<int>(triangles.rows()) - 1; f >= 0; --f)
     for (int k = 0; k < 3; ++k) {
       first_triangle_of_vertex_[triangles(f, k)] = f;
-      first_triangle_of_edge_[triangle_edges_[3 * f + k]] = f;
+      first_triangle_of_edge[triangle_edges_[3 * f + k]] = f;
     }
   owns_.assign(triangles.rows(), 0);
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)
     for (int k = 0; k < 3; ++k) {
       if (first_triangle_of_vertex_[triangles(f, k)] == f) owns_[f] |= 1u << k;
-      if (first_triangle_of_edge_[triangle_edges_[3 * f + k]] == f) owns_[f] |= 8u << k;
+      if (first_triangle_of_edge[triangle_edges_[3 * f + k]] == f) owns_[f] |= 8u << k;
     }
   std::vector<char> on_surface(rest.rows(), 0);
   for (Eigen::Index f = 0; f < triangles.rows(); ++f)
@@ -200,7 +200,7 @@ void SelfContact::make_clusters(int vertex_count) {
     if (k < 0) k = used++;
     cluster_of[v] = k;
   }
-  relative_.bind(std::move(cluster_of), used, surface_vertices_, triangles_.data(), triangle_count);
+  relative_.bind(std::move(cluster_of), used, surface_vertices_);
 }
 
 void SelfContact::build_tree(const Points& rest) {
@@ -490,7 +490,7 @@ bool SelfContact::listed(const double* P0, const double* P1) {
     most_moved_ = std::max(most_moved_, moved_[v]);
   }
   relative_list_ = !near;
-  return near || relative_.holds(P0, P1);
+  return near || relative_.holds(listed_at_.data(), P0, P1);
 }
 
 // The watched pairs closer than activation + margin at P0; the margin grows
@@ -499,7 +499,7 @@ void SelfContact::make_list(const double* P0, const double* P1) {
   double longest = 0;
   for (int v : surface_vertices_) longest = std::max(longest, (row(P1, v) - row(P0, v)).squaredNorm());
   list_margin_ = std::max(margin_, 2.001 * std::sqrt(longest));
-  relative_.set_reference(P0, list_margin_, activation_);
+  relative_.set_reference(P0, triangles_.data(), static_cast<long>(triangles_.rows()), list_margin_, activation_);
   refit(P0, P0, 0.5 * (activation_ + list_margin_));
   collect_triangle_pairs();
   collect_primitive_pairs();

@@ -93,7 +93,7 @@ class SelfContact {
   std::vector<int> edges_;           // 2 per edge
   std::vector<int> triangle_edges_;  // 3 per triangle
   std::vector<int> surface_vertices_;
-  std::vector<int> first_triangle_of_vertex_, first_triangle_of_edge_;
+  std::vector<int> first_triangle_of_vertex_;
   // Per triangle: bit k (k < 3) when it is its vertex k's first triangle, bit 3 + k its edge k's.
   std::vector<std::uint8_t> owns_;
   std::vector<Node> nodes_;
