@@ -19,6 +19,8 @@
 namespace {
 
 using arap::contact::edge_edge_distance2;
+using arap::contact::edge_edge_separation;
+using arap::contact::point_triangle_separation;
 using arap::contact::point_triangle_distance2;
 using arap::contact::segment_crosses_triangle;
 using arap::contact::Vec3;
@@ -153,6 +155,39 @@ TEST(ContactPrimitives, PointTriangleMatchesBruteForce) {
       if (HasFailure()) return;
     }
   }
+}
+
+// The separations are lower bounds of the distances (they decide which pairs
+// the list skips), and far apart they are not trivially 0.
+TEST(ContactPrimitives, SeparationsNeverExceedTheDistance) {
+  int far = 0, bounded_well = 0;
+  for (unsigned seed : {1u, 2u, 3u, 4u}) {
+    std::mt19937 rng(seed);
+    for (int c = 0; c < 2000; ++c) {
+      SCOPED_TRACE("seed " + std::to_string(seed) + " case " + std::to_string(c));
+      const bool point_triangle = c % 2 == 0;
+      std::array<Vec3, 4> x = random_configuration(rng, point_triangle);
+      if (c % 3 == 0) {  // the first primitive carried away from the second
+        const Vec3 shift = random_point(rng, 4.0);
+        x[0] += shift;
+        if (!point_triangle) x[1] += shift;
+      }
+      double w[4];
+      const double d = std::sqrt(point_triangle ? point_triangle_distance2(x[0], x[1], x[2], x[3], w)
+                                                : edge_edge_distance2(x[0], x[1], x[2], x[3], w));
+      const double s = point_triangle ? point_triangle_separation(x[0], x[1], x[2], x[3])
+                                      : edge_edge_separation(x[0], x[1], x[2], x[3]);
+      EXPECT_GE(s, 0.0);
+      EXPECT_LE(s, d * (1 + 1e-12) + 1e-15);
+      if (d > 3) {
+        ++far;
+        bounded_well += s > 0.5 * d;
+      }
+      if (HasFailure()) return;
+    }
+  }
+  ASSERT_GT(far, 100);
+  EXPECT_GT(bounded_well, far * 3 / 4);
 }
 
 TEST(ContactPrimitives, EdgeEdgeMatchesBruteForce) {

@@ -115,6 +115,24 @@ double edge_edge_distance2(const Vec3& a0, const Vec3& a1, const Vec3& b0, const
   return best.distance2;
 }
 
+double point_triangle_separation(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 axis = (a + b + c) / 3 - p;
+  const double length = axis.norm();
+  if (!(length > 0)) return 0;
+  // The triangle's nearest reach toward p along the axis, over its corners.
+  const double nearest = std::min({(a - p).dot(axis), (b - p).dot(axis), (c - p).dot(axis)}) / length;
+  return std::max(0.0, nearest);
+}
+
+double edge_edge_separation(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1) {
+  const Vec3 axis = (b0 + b1 - a0 - a1) / 2;
+  const double length = axis.norm();
+  if (!(length > 0)) return 0;
+  // Each segment projects to its midpoint's place +- half its extent along the axis.
+  const double half_extents = 0.5 * (std::abs((a1 - a0).dot(axis)) + std::abs((b1 - b0).dot(axis))) / length;
+  return std::max(0.0, length - half_extents);
+}
+
 namespace {
 
 // Whether the closed 2D segments (a, b) and (c, d) share a point, from

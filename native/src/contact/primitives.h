@@ -26,6 +26,13 @@ double point_triangle_distance2(const Vec3& p, const Vec3& a, const Vec3& b, con
 // closest points is returned).
 double edge_edge_distance2(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1, double w[4]);
 
+// Lower bounds of those distances, cheap enough to skip most far pairs before
+// the exact ones: the gap between the two shapes' projections on the axis from
+// one's centre to the other's (a projection never lengthens a distance). 0
+// when the projections overlap.
+double point_triangle_separation(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
+double edge_edge_separation(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1);
+
 // Whether the closed segment (a, b) and the closed triangle (p, q, r) share a
 // point. Exact up to rounding of the orientation tests; coplanar overlaps count.
 // A zero-area triangle is tested as its longest edge, by distance (zero up to

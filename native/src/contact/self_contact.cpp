@@ -268,11 +268,11 @@ void SelfContact::refit(const double* P0, const double* P1, double pad) {
   }
 }
 
-void SelfContact::collect_triangle_pairs() {
-  tri_pairs_.clear();
+template <class Visit>
+void SelfContact::for_each_triangle_pair(Visit&& visit) {
   // i, j: places in leaf order (their boxes side by side in leaf_box_).
   auto test = [&](int i, int j) {
-    if (overlap(leaf_box_[i], leaf_box_[j])) tri_pairs_.push_back(sorted_key(leaf_triangles_[i], leaf_triangles_[j]));
+    if (overlap(leaf_box_[i], leaf_box_[j])) visit(leaf_triangles_[i], leaf_triangles_[j]);
   };
   stack_.clear();
   stack_.emplace_back(0, 0);
@@ -306,43 +306,52 @@ void SelfContact::collect_triangle_pairs() {
   }
 }
 
-// Each point-triangle and edge-edge pair comes from one triangle pair only: a
-// vertex (an edge) is taken from the first triangle that holds it, whose box
-// holds the vertex's (the edge's) box. So no pair is listed twice, and none is
+// A vertex (an edge) is taken from the first triangle that holds it, whose box
+// holds the vertex's (the edge's) box. So no pair comes twice, and none is
 // missed: if a vertex's box meets triangle g's, so does its first triangle's.
+template <class OnVt, class OnEe>
+void SelfContact::for_each_primitive_pair(int f, int g, OnVt&& on_vt, OnEe&& on_ee) const {
+  const int* tf = &triangles_(f, 0);
+  const int* tg = &triangles_(g, 0);
+  for (int pass = 0; pass < 2; ++pass) {
+    const int a = pass == 0 ? f : g, b = pass == 0 ? g : f;
+    const int* ta = pass == 0 ? tf : tg;
+    const int* tb = pass == 0 ? tg : tf;
+    const unsigned owned = owns_[a];
+    for (int i = 0; i < 3; ++i) {
+      const int v = ta[i];
+      if (!(owned >> i & 1u) || v == tb[0] || v == tb[1] || v == tb[2]) continue;
+      if (overlap(vertex_box_[v], triangle_box_[b])) on_vt(v, b);
+    }
+  }
+  const unsigned owned_f = owns_[f] >> 3, owned_g = owns_[g] >> 3;
+  if (!owned_f || !owned_g) return;
+  for (int i = 0; i < 3; ++i) {
+    if (!(owned_f >> i & 1u)) continue;
+    const int ea = triangle_edges_[3 * f + i];
+    const int a0 = edges_[2 * ea], a1 = edges_[2 * ea + 1];
+    for (int j = 0; j < 3; ++j) {
+      if (!(owned_g >> j & 1u)) continue;
+      const int eb = triangle_edges_[3 * g + j];
+      const int b0 = edges_[2 * eb], b1 = edges_[2 * eb + 1];
+      if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) continue;
+      if (overlap(edge_box_[ea], edge_box_[eb])) on_ee(ea, eb);
+    }
+  }
+}
+
+void SelfContact::collect_triangle_pairs() {
+  tri_pairs_.clear();
+  for_each_triangle_pair([&](int f, int g) { tri_pairs_.push_back(sorted_key(f, g)); });
+}
+
 void SelfContact::collect_primitive_pairs() {
   vt_.clear();
   ee_.clear();
-  for (std::uint64_t k : tri_pairs_) {
-    const int f = static_cast<int>(k >> 32), g = static_cast<int>(k & 0xffffffffu);
-    const int* tf = &triangles_(f, 0);
-    const int* tg = &triangles_(g, 0);
-    for (int pass = 0; pass < 2; ++pass) {
-      const int a = pass == 0 ? f : g, b = pass == 0 ? g : f;
-      const int* ta = pass == 0 ? tf : tg;
-      const int* tb = pass == 0 ? tg : tf;
-      const unsigned owned = owns_[a];
-      for (int i = 0; i < 3; ++i) {
-        const int v = ta[i];
-        if (!(owned >> i & 1u) || v == tb[0] || v == tb[1] || v == tb[2]) continue;
-        if (overlap(vertex_box_[v], triangle_box_[b])) vt_.push_back(key(v, b));
-      }
-    }
-    const unsigned owned_f = owns_[f] >> 3, owned_g = owns_[g] >> 3;
-    if (!owned_f || !owned_g) continue;
-    for (int i = 0; i < 3; ++i) {
-      if (!(owned_f >> i & 1u)) continue;
-      const int ea = triangle_edges_[3 * f + i];
-      const int a0 = edges_[2 * ea], a1 = edges_[2 * ea + 1];
-      for (int j = 0; j < 3; ++j) {
-        if (!(owned_g >> j & 1u)) continue;
-        const int eb = triangle_edges_[3 * g + j];
-        const int b0 = edges_[2 * eb], b1 = edges_[2 * eb + 1];
-        if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) continue;
-        if (overlap(edge_box_[ea], edge_box_[eb])) ee_.push_back(sorted_key(ea, eb));
-      }
-    }
-  }
+  for (std::uint64_t k : tri_pairs_)
+    for_each_primitive_pair(
+        static_cast<int>(k >> 32), static_cast<int>(k & 0xffffffffu), [&](int v, int f) { vt_.push_back(key(v, f)); },
+        [&](int a, int b) { ee_.push_back(sorted_key(a, b)); });
 }
 
 SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1) {
@@ -435,15 +444,19 @@ void SelfContact::sweep(const double* P0, const double* P1, bool moving, Step& s
     return listed_distance - most >= activation_;
   };
   const double within = activation_ + (relative_list_ ? relative_.largest_bound() : 2 * most_moved_);
-  for (const NearPair& n : near_vt_) {
-    if (n.distance >= within) break;
+  const std::vector<NearPair>& near_vt = near_vt_.pairs();
+  for (size_t i = 0, end = near_vt_.count_below(within); i < end; ++i) {
+    const NearPair& n = near_vt[i];
+    if (n.distance >= within) continue;
     const int f = static_cast<int>(n.key & 0xffffffffu);
     const int v[4] = {static_cast<int>(n.key >> 32), triangles_(f, 0), triangles_(f, 1), triangles_(f, 2)};
     if (far(n.distance, v, 1)) continue;
     consider(v, true);
   }
-  for (const NearPair& n : near_ee_) {
-    if (n.distance >= within) break;
+  const std::vector<NearPair>& near_ee = near_ee_.pairs();
+  for (size_t i = 0, end = near_ee_.count_below(within); i < end; ++i) {
+    const NearPair& n = near_ee[i];
+    if (n.distance >= within) continue;
     const int a = static_cast<int>(n.key >> 32), b = static_cast<int>(n.key & 0xffffffffu);
     const int v[4] = {edges_[2 * a], edges_[2 * a + 1], edges_[2 * b], edges_[2 * b + 1]};
     if (far(n.distance, v, 2)) continue;
@@ -501,30 +514,29 @@ void SelfContact::make_list(const double* P0, const double* P1) {
   list_margin_ = std::max(margin_, 2.001 * std::sqrt(longest));
   relative_.set_reference(P0, triangles_.data(), static_cast<long>(triangles_.rows()), list_margin_, activation_);
   refit(P0, P0, 0.5 * (activation_ + list_margin_));
-  collect_triangle_pairs();
-  collect_primitive_pairs();
-  near_vt_.clear();
-  near_ee_.clear();
-  const double reach2 = (activation_ + list_margin_) * (activation_ + list_margin_);
+  const double reach = activation_ + list_margin_, reach2 = reach * reach;
+  near_vt_.start(reach);
+  near_ee_.start(reach);
   double w[4];
-  for (std::uint64_t k : vt_) {
-    if (excluded(excluded_vt_, k)) continue;
-    const int v = static_cast<int>(k >> 32), f = static_cast<int>(k & 0xffffffffu);
-    const double d2 = point_triangle_distance2(row(P0, v), row(P0, triangles_(f, 0)), row(P0, triangles_(f, 1)),
-                                               row(P0, triangles_(f, 2)), w);
-    if (d2 < reach2) near_vt_.push_back({std::sqrt(d2), k});
-  }
-  for (std::uint64_t k : ee_) {
-    if (excluded(excluded_ee_, k)) continue;
-    const int a = static_cast<int>(k >> 32), b = static_cast<int>(k & 0xffffffffu);
-    const double d2 = edge_edge_distance2(row(P0, edges_[2 * a]), row(P0, edges_[2 * a + 1]), row(P0, edges_[2 * b]),
-                                          row(P0, edges_[2 * b + 1]), w);
-    if (d2 < reach2) near_ee_.push_back({std::sqrt(d2), k});
-  }
-  // Nearest first: a move checks only the pairs that its largest motion can bring within reach.
-  auto nearer = [](const NearPair& a, const NearPair& b) { return a.distance < b.distance; };
-  std::sort(near_vt_.begin(), near_vt_.end(), nearer);
-  std::sort(near_ee_.begin(), near_ee_.end(), nearer);
+  auto point_triangle = [&](int v, int f) {
+    const Vec3 p = row(P0, v), a = row(P0, triangles_(f, 0)), b = row(P0, triangles_(f, 1)), c = row(P0, triangles_(f, 2));
+    if (point_triangle_separation(p, a, b, c) >= reach) return;
+    const double d2 = point_triangle_distance2(p, a, b, c, w);
+    const std::uint64_t k = key(v, f);
+    if (d2 < reach2 && !excluded(excluded_vt_, k)) near_vt_.add(std::sqrt(d2), k);
+  };
+  auto edge_edge = [&](int e, int g) {
+    const Vec3 a0 = row(P0, edges_[2 * e]), a1 = row(P0, edges_[2 * e + 1]);
+    const Vec3 b0 = row(P0, edges_[2 * g]), b1 = row(P0, edges_[2 * g + 1]);
+    if (edge_edge_separation(a0, a1, b0, b1) >= reach) return;
+    const double d2 = edge_edge_distance2(a0, a1, b0, b1, w);
+    const std::uint64_t k = sorted_key(e, g);
+    if (d2 < reach2 && !excluded(excluded_ee_, k)) near_ee_.add(std::sqrt(d2), k);
+  };
+  for_each_triangle_pair([&](int f, int g) { for_each_primitive_pair(f, g, point_triangle, edge_edge); });
+  // Grouped by distance: a move checks only the pairs that its largest motion can bring within reach.
+  near_vt_.finish();
+  near_ee_.finish();
   for (int v : surface_vertices_)
     for (int c = 0; c < 3; ++c) listed_at_[3 * v + c] = P0[3 * v + c];
   list_made_ = true;

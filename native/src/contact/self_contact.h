@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "arap/types.h"
+#include "contact/near_list.h"
 #include "contact/relative_motion.h"
 
 namespace arap::contact {
@@ -77,9 +78,16 @@ class SelfContact {
   void make_clusters(int vertex_count);
   int build_node(std::vector<int>& tris, int begin, int end, const std::vector<Eigen::Vector3d>& centroid);
   void refit(const double* P0, const double* P1, double pad);
-  // Candidate triangle pairs (sharing no vertex, boxes overlapping) into tri_pairs_.
+  // visit(f, g) for each pair of triangles whose boxes overlap.
+  template <class Visit>
+  void for_each_triangle_pair(Visit&& visit);
+  // The point-triangle (on_vt(v, f)) and edge-edge (on_ee(e, g)) pairs that triangles f and g
+  // hold, their boxes overlapping; each pair comes from one triangle pair only.
+  template <class OnVt, class OnEe>
+  void for_each_primitive_pair(int f, int g, OnVt&& on_vt, OnEe&& on_ee) const;
+  // Candidate triangle pairs (boxes overlapping) into tri_pairs_.
   void collect_triangle_pairs();
-  // Point-triangle and edge-edge candidates of tri_pairs_ into vt_ and ee_ (sorted, unique).
+  // Point-triangle and edge-edge candidates of tri_pairs_ into vt_ and ee_ (each once).
   void collect_primitive_pairs();
   bool excluded(const std::vector<std::uint64_t>& sorted, std::uint64_t key) const;
   void sweep(const double* P0, const double* P1, bool moving, Step& step);
@@ -110,11 +118,7 @@ class SelfContact {
   std::vector<std::uint64_t> tri_pairs_, vt_, ee_;
   std::vector<std::pair<int, int>> stack_;
   std::vector<ActivePair> active_;
-  struct NearPair {
-    double distance;  // where the list was made
-    std::uint64_t key;
-  };
-  std::vector<NearPair> near_vt_, near_ee_;  // the watched pairs within activation + margin, nearest first
+  NearList near_vt_, near_ee_;  // the watched pairs within activation + margin
   std::vector<double> listed_at_;                 // 3 per vertex: where the list was made
   std::vector<double> moved_;                     // per vertex: how far from there, on the move checked
   double most_moved_ = 0;
