@@ -507,7 +507,8 @@ struct Solver::Impl {
       if (volume.active()) project_volume(stats);
       contact_goal = state;
       auto t = Clock::now();
-      const contact::SelfContact::Step step = contact.evaluate(contact_from.data(), contact_goal.data());
+      const contact::SelfContact::Step step =
+          contact.evaluate(contact_from.data(), contact_goal.data(), contact::SelfContact::ListAt::Start);
       stats.contact_ms += ms_since(t);
       const double made = step.fraction >= 1 ? share : kContactBackoff * step.fraction * share;
       if (step.fraction < 1)

@@ -354,7 +354,8 @@ void SelfContact::collect_primitive_pairs() {
         [&](int a, int b) { ee_.push_back(sorted_key(a, b)); });
 }
 
-SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1) {
+SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1, ListAt list_at) {
+  list_at_ = list_at;
   Step step;
   active_.clear();
   if (!active()) return step;
@@ -399,7 +400,9 @@ SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1) {
 // One straight move from P0 to P1 checked in one pass (`moving`; else P0 == P1
 // is a state): step.fraction and step.blocking, the energy and pairs at P1.
 void SelfContact::sweep(const double* P0, const double* P1, bool moving, Step& step) {
-  if (!listed(P0, P1)) make_list(P0, P1);
+  // Made at the move's end, it covers the move all the same (the criteria look at
+  // both ends), and the next move starts there (a long move's next piece, the next step).
+  if (!listed(P0, P1)) list_at_ == ListAt::End ? make_list(P1, P0) : make_list(P0, P1);
   Vec3 x[4], dx[4];
   double w[4];
   auto consider = [&](const int v[4], bool point_triangle) {
@@ -506,28 +509,28 @@ bool SelfContact::listed(const double* P0, const double* P1) {
   return near || relative_.holds(listed_at_.data(), P0, P1);
 }
 
-// The watched pairs closer than activation + margin at P0; the margin grows
-// for a step P0 -> P1 longer than half of it (one cut into the most pieces).
-void SelfContact::make_list(const double* P0, const double* P1) {
+// The watched pairs closer than activation + margin at `at`; the margin grows
+// for a move between `at` and `other` longer than half of it (one cut into the most pieces).
+void SelfContact::make_list(const double* at, const double* other) {
   double longest = 0;
-  for (int v : surface_vertices_) longest = std::max(longest, (row(P1, v) - row(P0, v)).squaredNorm());
+  for (int v : surface_vertices_) longest = std::max(longest, (row(other, v) - row(at, v)).squaredNorm());
   list_margin_ = std::max(margin_, 2.001 * std::sqrt(longest));
-  relative_.set_reference(P0, triangles_.data(), static_cast<long>(triangles_.rows()), list_margin_, activation_);
-  refit(P0, P0, 0.5 * (activation_ + list_margin_));
+  relative_.set_reference(at, triangles_.data(), static_cast<long>(triangles_.rows()), list_margin_, activation_);
+  refit(at, at, 0.5 * (activation_ + list_margin_));
   const double reach = activation_ + list_margin_, reach2 = reach * reach;
   near_vt_.start(reach);
   near_ee_.start(reach);
   double w[4];
   auto point_triangle = [&](int v, int f) {
-    const Vec3 p = row(P0, v), a = row(P0, triangles_(f, 0)), b = row(P0, triangles_(f, 1)), c = row(P0, triangles_(f, 2));
+    const Vec3 p = row(at, v), a = row(at, triangles_(f, 0)), b = row(at, triangles_(f, 1)), c = row(at, triangles_(f, 2));
     if (point_triangle_separation(p, a, b, c) >= reach) return;
     const double d2 = point_triangle_distance2(p, a, b, c, w);
     const std::uint64_t k = key(v, f);
     if (d2 < reach2 && !excluded(excluded_vt_, k)) near_vt_.add(std::sqrt(d2), k);
   };
   auto edge_edge = [&](int e, int g) {
-    const Vec3 a0 = row(P0, edges_[2 * e]), a1 = row(P0, edges_[2 * e + 1]);
-    const Vec3 b0 = row(P0, edges_[2 * g]), b1 = row(P0, edges_[2 * g + 1]);
+    const Vec3 a0 = row(at, edges_[2 * e]), a1 = row(at, edges_[2 * e + 1]);
+    const Vec3 b0 = row(at, edges_[2 * g]), b1 = row(at, edges_[2 * g + 1]);
     if (edge_edge_separation(a0, a1, b0, b1) >= reach) return;
     const double d2 = edge_edge_distance2(a0, a1, b0, b1, w);
     const std::uint64_t k = sorted_key(e, g);
@@ -538,9 +541,9 @@ void SelfContact::make_list(const double* P0, const double* P1) {
   near_vt_.finish();
   near_ee_.finish();
   for (int v : surface_vertices_)
-    for (int c = 0; c < 3; ++c) listed_at_[3 * v + c] = P0[3 * v + c];
+    for (int c = 0; c < 3; ++c) listed_at_[3 * v + c] = at[3 * v + c];
   list_made_ = true;
-  listed(P0, P1);  // sets moved_ (the margin covers the move)
+  listed(at, other);  // sets moved_ (the margin covers the move)
   ++lists_made_;
 }
 

@@ -47,7 +47,12 @@ class SelfContact {
     double energy = 0;
     int blocking[4] = {-1, -1, -1, -1};
   };
-  Step evaluate(const double* P0, const double* P1);
+  // A list of near pairs the move needs is made where the next move will likely
+  // start: at the end of each piece of the move (ListAt::End), or at its start
+  // for a move expected to be cut (ListAt::Start: the end lies past a contact,
+  // and a list made there holds pairs that do not matter).
+  enum class ListAt { End, Start };
+  Step evaluate(const double* P0, const double* P1, ListAt list_at = ListAt::End);
   // The barrier energy at P (no motion).
   double energy(const double* P) { return evaluate(P, P).energy; }
   // g += 1/2 dE_contact/dp on the free rows (`free_row`: vertex -> row or -1,
@@ -92,7 +97,7 @@ class SelfContact {
   bool excluded(const std::vector<std::uint64_t>& sorted, std::uint64_t key) const;
   void sweep(const double* P0, const double* P1, bool moving, Step& step);
   bool listed(const double* P0, const double* P1);
-  void make_list(const double* P0, const double* P1);
+  void make_list(const double* at, const double* other);
   bool triangles_cross(const double* P, int f, int g) const;
   double barrier(double d) const;
   double barrier_slope(double d) const;
@@ -126,6 +131,7 @@ class SelfContact {
   bool relative_list_ = false;  // the move checked last is covered by it (moved_ is not set then)
   double list_margin_ = 0;
   bool list_made_ = false;
+  ListAt list_at_ = ListAt::End;  // of the move being checked
   long lists_made_ = 0;
   std::vector<double> piece_start_, piece_end_;  // 3 per vertex: the ends of one piece of a long step
 };
