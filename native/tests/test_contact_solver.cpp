@@ -403,7 +403,6 @@ TEST(ContactPairList, ACarriedAlongMeshKeepsItsList) {
   EXPECT_LT(kept.lists_made(), steps / 4) << "the list was made again for moves that carry everything along";
 }
 
-
 // A long move that bends the surface (a shear wave, too uneven for the
 // clusters' bound) is checked in pieces of a quarter edge; a list made at a
 // piece's end holds for that piece and the next, and for a short step that
@@ -415,13 +414,12 @@ TEST(ContactPairList, AListMadeAtTheEndOfAPieceCoversTheNextOne) {
   arap::contact::SelfContact kept;
   kept.bind(rest, s.triangles, 1.0);
   const double amplitude = 2.0 * edge, wavelength = 16.0 * edge;
-  Points waved = rest, nudged = rest;
-  for (Eigen::Index v = 0; v < rest.rows(); ++v) {
+  Points waved = rest;
+  for (Eigen::Index v = 0; v < rest.rows(); ++v)
     waved(v, 0) += amplitude * std::sin(2 * M_PI * rest(v, 2) / wavelength);
-    nudged(v, 0) = waved(v, 0) + 0.1 * edge * std::cos(2 * M_PI * rest(v, 2) / wavelength);
-    nudged(v, 1) = waved(v, 1);
-    nudged(v, 2) = waved(v, 2);
-  }
+  Points nudged = waved;
+  for (Eigen::Index v = 0; v < rest.rows(); ++v)
+    nudged(v, 0) += 0.1 * edge * std::cos(2 * M_PI * rest(v, 2) / wavelength);
   const auto move = kept.evaluate(rest.data(), waved.data());
   ASSERT_EQ(move.fraction, 1.0);
   const long pieces = static_cast<long>(std::ceil(amplitude / (0.25 * edge)));
@@ -436,6 +434,7 @@ TEST(ContactPairList, AListMadeAtTheEndOfAPieceCoversTheNextOne) {
   EXPECT_EQ(a.fraction, b.fraction);
   EXPECT_NEAR(a.energy, b.energy, 1e-12 * (1 + std::abs(b.energy)));
 }
+
 }  // namespace
 
 namespace {

@@ -146,27 +146,24 @@ void SelfContact::bind(const Points& rest, const Triangles& triangles, double st
   // Pairs near at rest are not watched; triangle pairs that cross at rest are remembered.
   const double* P = rest.data();
   refit(P, P, 0.5 * activation_);
-  collect_triangle_pairs();
-  collect_primitive_pairs();
+  const double activation2 = activation_ * activation_;
   double w[4];
-  for (std::uint64_t k : vt_) {
-    const int v = static_cast<int>(k >> 32), f = static_cast<int>(k & 0xffffffffu);
+  auto point_triangle = [&](int v, int f) {
     const double d2 = point_triangle_distance2(row(P, v), row(P, triangles_(f, 0)), row(P, triangles_(f, 1)),
                                                row(P, triangles_(f, 2)), w);
-    if (d2 < activation_ * activation_) excluded_vt_.push_back(k);
-  }
-  for (std::uint64_t k : ee_) {
-    const int a = static_cast<int>(k >> 32), b = static_cast<int>(k & 0xffffffffu);
+    if (d2 < activation2) excluded_vt_.push_back(key(v, f));
+  };
+  auto edge_edge = [&](int a, int b) {
     const double d2 = edge_edge_distance2(row(P, edges_[2 * a]), row(P, edges_[2 * a + 1]), row(P, edges_[2 * b]),
                                           row(P, edges_[2 * b + 1]), w);
-    if (d2 < activation_ * activation_) excluded_ee_.push_back(k);
-  }
+    if (d2 < activation2) excluded_ee_.push_back(sorted_key(a, b));
+  };
+  for_each_triangle_pair([&](int f, int g) {
+    for_each_primitive_pair(f, g, point_triangle, edge_edge);
+    if (triangles_cross(P, f, g)) rest_crossing_.push_back(sorted_key(f, g));
+  });
   std::sort(excluded_vt_.begin(), excluded_vt_.end());
   std::sort(excluded_ee_.begin(), excluded_ee_.end());
-  for (std::uint64_t k : tri_pairs_) {
-    const int f = static_cast<int>(k >> 32), g = static_cast<int>(k & 0xffffffffu);
-    if (triangles_cross(P, f, g)) rest_crossing_.push_back(k);
-  }
   std::sort(rest_crossing_.begin(), rest_crossing_.end());
 }
 
@@ -340,27 +337,12 @@ void SelfContact::for_each_primitive_pair(int f, int g, OnVt&& on_vt, OnEe&& on_
   }
 }
 
-void SelfContact::collect_triangle_pairs() {
-  tri_pairs_.clear();
-  for_each_triangle_pair([&](int f, int g) { tri_pairs_.push_back(sorted_key(f, g)); });
-}
-
-void SelfContact::collect_primitive_pairs() {
-  vt_.clear();
-  ee_.clear();
-  for (std::uint64_t k : tri_pairs_)
-    for_each_primitive_pair(
-        static_cast<int>(k >> 32), static_cast<int>(k & 0xffffffffu), [&](int v, int f) { vt_.push_back(key(v, f)); },
-        [&](int a, int b) { ee_.push_back(sorted_key(a, b)); });
-}
-
 SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1, ListAt list_at) {
-  list_at_ = list_at;
   Step step;
   active_.clear();
   if (!active()) return step;
   if (P0 == P1) {
-    sweep(P0, P1, false, step);
+    sweep(P0, P1, false, list_at, step);
     return step;
   }
   // A long move is checked in pieces no vertex moves more than half the margin
@@ -372,7 +354,7 @@ SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1, List
   const double reach = 0.5 * margin_;
   const int pieces = !(longest > reach) ? 1 : static_cast<int>(std::min<double>(kMostPieces, std::ceil(longest / reach)));
   if (pieces == 1) {
-    sweep(P0, P1, true, step);
+    sweep(P0, P1, true, list_at, step);
     return step;
   }
   auto along = [&](int k, std::vector<double>& into) -> const double* {
@@ -386,7 +368,7 @@ SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1, List
   for (int k = 0; k < pieces; ++k) {
     Step piece;
     active_.clear();
-    sweep(along(k, piece_start_), along(k + 1, piece_end_), true, piece);
+    sweep(along(k, piece_start_), along(k + 1, piece_end_), true, list_at, piece);
     if (piece.fraction < 1) {
       step.fraction = (k + piece.fraction) / pieces;
       std::copy(piece.blocking, piece.blocking + 4, step.blocking);
@@ -399,10 +381,10 @@ SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1, List
 
 // One straight move from P0 to P1 checked in one pass (`moving`; else P0 == P1
 // is a state): step.fraction and step.blocking, the energy and pairs at P1.
-void SelfContact::sweep(const double* P0, const double* P1, bool moving, Step& step) {
+void SelfContact::sweep(const double* P0, const double* P1, bool moving, ListAt list_at, Step& step) {
   // Made at the move's end, it covers the move all the same (the criteria look at
   // both ends), and the next move starts there (a long move's next piece, the next step).
-  if (!listed(P0, P1)) list_at_ == ListAt::End ? make_list(P1, P0) : make_list(P0, P1);
+  if (!listed(P0, P1)) list_at == ListAt::End ? make_list(P1, P0) : make_list(P0, P1);
   Vec3 x[4], dx[4];
   double w[4];
   auto consider = [&](const int v[4], bool point_triangle) {
@@ -552,12 +534,11 @@ bool SelfContact::is_clear(const double* P) {
   if (!active()) return true;
   if (evaluate(P, P).fraction < 1) return false;
   refit(P, P, 0.5 * activation_);
-  collect_triangle_pairs();
-  for (std::uint64_t k : tri_pairs_) {
-    const int f = static_cast<int>(k >> 32), g = static_cast<int>(k & 0xffffffffu);
-    if (!excluded(rest_crossing_, k) && triangles_cross(P, f, g)) return false;
-  }
-  return true;
+  bool clear = true;
+  for_each_triangle_pair([&](int f, int g) {
+    if (clear && triangles_cross(P, f, g) && !excluded(rest_crossing_, sorted_key(f, g))) clear = false;
+  });
+  return clear;
 }
 
 // Whether triangles f and g (sharing no vertex) cross: an edge of one through

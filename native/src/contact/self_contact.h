@@ -90,12 +90,8 @@ class SelfContact {
   // hold, their boxes overlapping; each pair comes from one triangle pair only.
   template <class OnVt, class OnEe>
   void for_each_primitive_pair(int f, int g, OnVt&& on_vt, OnEe&& on_ee) const;
-  // Candidate triangle pairs (boxes overlapping) into tri_pairs_.
-  void collect_triangle_pairs();
-  // Point-triangle and edge-edge candidates of tri_pairs_ into vt_ and ee_ (each once).
-  void collect_primitive_pairs();
   bool excluded(const std::vector<std::uint64_t>& sorted, std::uint64_t key) const;
-  void sweep(const double* P0, const double* P1, bool moving, Step& step);
+  void sweep(const double* P0, const double* P1, bool moving, ListAt list_at, Step& step);
   bool listed(const double* P0, const double* P1);
   void make_list(const double* at, const double* other);
   bool triangles_cross(const double* P, int f, int g) const;
@@ -120,7 +116,6 @@ class SelfContact {
   std::vector<Box> triangle_box_;
   std::vector<Box> edge_box_;
   std::vector<Box> leaf_box_;    // triangle_box_ in the order of leaf_triangles_
-  std::vector<std::uint64_t> tri_pairs_, vt_, ee_;
   std::vector<std::pair<int, int>> stack_;
   std::vector<ActivePair> active_;
   NearList near_vt_, near_ee_;  // the watched pairs within activation + margin
@@ -131,7 +126,6 @@ class SelfContact {
   bool relative_list_ = false;  // the move checked last is covered by it (moved_ is not set then)
   double list_margin_ = 0;
   bool list_made_ = false;
-  ListAt list_at_ = ListAt::End;  // of the move being checked
   long lists_made_ = 0;
   std::vector<double> piece_start_, piece_end_;  // 3 per vertex: the ends of one piece of a long step
 };
