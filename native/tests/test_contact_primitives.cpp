@@ -26,7 +26,7 @@ using arap::contact::segment_crosses_triangle;
 using arap::contact::Vec3;
 
 using Distance2 = double (*)(const Vec3&, const Vec3&, const Vec3&, const Vec3&, double*);
-using Impact = double (*)(const Vec3[4], const Vec3[4], double, double);
+using Impact = double (*)(const Vec3[4], const Vec3[4], double, double, double);  // separation, reduction, up_to
 
 struct Kind {
   const char* name;
@@ -567,7 +567,7 @@ struct CcdCounts {
 // start (nearer, the algorithm stops by design, not for a collision).
 double check_ccd(const Kind& kind, const Points& x, const Points& dx, double separation, double reduction,
                  bool expect_whole, CcdCounts* counts = nullptr) {
-  const double t = kind.impact(x.data(), dx.data(), separation, reduction);
+  const double t = kind.impact(x.data(), dx.data(), separation, reduction, 1.0);
   EXPECT_TRUE(t >= 0 && t <= 1) << t;
   const double d0 = distance_at(kind, x, dx, 0);
   if (counts) ++counts->cases;
@@ -650,6 +650,34 @@ TEST(ContactCcd, TinySeparations) {
   random_ccd_cases(kEdgeEdge, {1e-6}, 150);
 }
 
+// Searching only up to `up_to` (the fraction another pair already stopped the
+// move at) gives the whole search's answer below it, and something not below it otherwise.
+TEST(ContactCcd, UpToOnlyTellsWhetherThePairStopsTheStepEarlier) {
+  std::mt19937 rng(43);
+  int beyond = 0, before = 0;
+  for (const Kind* kind : {&kPointTriangle, &kEdgeEdge})
+    for (int c = 0; c < 400; ++c) {
+      SCOPED_TRACE(std::string(kind->name) + " case " + std::to_string(c));
+      Points x, dx;
+      random_motion(rng, *kind, uniform(rng, 0, 1.5), x, dx);
+      const double separation = 1e-2, up_to = uniform(rng, 0.05, 1);
+      const double whole = kind->impact(x.data(), dx.data(), separation, 0.1, 1.0);
+      const double t = kind->impact(x.data(), dx.data(), separation, 0.1, up_to);
+      if (whole < up_to) {
+        EXPECT_EQ(t, whole);
+      } else {
+        EXPECT_GE(t, up_to);
+        EXPECT_LE(t, whole);
+      }
+      beyond += whole >= up_to && whole < 1;
+      before += whole < up_to && whole > 0;
+      if (HasFailure()) return;
+    }
+  // Both outcomes occur, with the whole search stopping short of 1.
+  EXPECT_GT(beyond, 50);
+  EXPECT_GT(before, 50);
+}
+
 const double kSeparations[] = {0.1, 1e-3, 1e-6};
 
 TEST(ContactCcd, ParallelEdgesSlidingIntoEachOther) {
@@ -668,9 +696,10 @@ TEST(ContactCcd, ParallelEdgesSlidingIntoEachOther) {
     t = check_ccd(kEdgeEdge, {a0, a1, Vec3(2, 0, 1), Vec3(3, 0, 1)}, {zero, zero, Vec3(-3, 0, -1), Vec3(-3, 0, -1)}, xi,
                   0.1, true);
     EXPECT_LT(t, 1.0);
-    // Sliding past at 1.5 separations, from overlapping: never closer, the whole step.
+    // Sliding past at 1.5 separations, from overlapping: never closer, the whole step
+    // (each step of the algorithm slides 0.45 separations: 667 at 1e-3, within its 1000).
     t = check_ccd(kEdgeEdge, {a0, a1, Vec3(0.2, 1.5 * xi, 0), Vec3(1.2, 1.5 * xi, 0)},
-                  {zero, zero, Vec3(0.5, 0, 0), Vec3(0.5, 0, 0)}, xi, 0.1, true);
+                  {zero, zero, Vec3(0.3, 0, 0), Vec3(0.3, 0, 0)}, xi, 0.1, true);
     if (xi >= 1e-3) {
       EXPECT_EQ(t, 1.0);
     }
@@ -758,8 +787,8 @@ TEST(ContactCcd, ZeroAndRigidStepsAreWhole) {
       const Vec3 shift = random_point(rng, 5);
       const Points rigid = {shift, shift, shift, shift};
       for (const Points* dx : {&still, &rigid}) {
-        EXPECT_EQ(kind->impact(x.data(), dx->data(), 0.5 * d, 0.1), 1.0);
-        EXPECT_EQ(kind->impact(x.data(), dx->data(), d * (1 + 1e-14), 0.1), 0.0);  // within the separation
+        EXPECT_EQ(kind->impact(x.data(), dx->data(), 0.5 * d, 0.1, 1.0), 1.0);
+        EXPECT_EQ(kind->impact(x.data(), dx->data(), d * (1 + 1e-14), 0.1, 1.0), 0.0);  // within the separation
       }
     }
 }

@@ -11,7 +11,7 @@ using Distance2 = double (*)(const Vec3&, const Vec3&, const Vec3&, const Vec3&,
 
 // Enough for any step that does not graze at a small fraction of `separation`
 // from contact for a long stretch; past it the step found so far is returned (still safe).
-constexpr int kMaxIterations = 10000;
+constexpr int kMaxIterations = 1000;
 
 double distance2_at(Distance2 distance2, const Vec3 x[4], const Vec3 dx[4], double t) {
   const Vec3 y0 = x[0] + t * dx[0], y1 = x[1] + t * dx[1], y2 = x[2] + t * dx[2], y3 = x[3] + t * dx[3];
@@ -32,7 +32,7 @@ void relative_steps(const Vec3 dx[4], Vec3 out[4]) {
 // written (d^2 - xi^2) / ((d + xi) l_p), xi = separation, so that d^2 - xi^2 comes from the
 // squared distance without the cancellation of d - xi.
 double additive_ccd(Distance2 distance2, const Vec3 x[4], const Vec3 dx[4], double l_p, double separation,
-                    double reduction) {
+                    double reduction, double up_to) {
   const double xi2 = separation * separation;
   double d2 = distance2_at(distance2, x, dx, 0.0);
   if (!(d2 > xi2)) return 0.0;  // also a NaN distance
@@ -53,6 +53,7 @@ double additive_ccd(Distance2 distance2, const Vec3 x[4], const Vec3 dx[4], doub
     // it is the first step's (the paper takes the first step in any case).
     if (t > 0 && gap < g) return t;
     t = t_next;
+    if (t >= up_to) return t;  // the whole search returns t or later
     t_l = 0.9 * gap / ((std::sqrt(d2) + separation) * l_p);
   }
   return t;
@@ -60,20 +61,21 @@ double additive_ccd(Distance2 distance2, const Vec3 x[4], const Vec3 dx[4], doub
 
 }  // namespace
 
-double point_triangle_impact(const Vec3 x[4], const Vec3 dx[4], double separation, double reduction) {
+double point_triangle_impact(const Vec3 x[4], const Vec3 dx[4], double separation, double reduction,
+                             double up_to) {
   Vec3 p[4];
   relative_steps(dx, p);
   // A point of the triangle moves by a convex combination of its vertices' steps.
   const double l_p = p[0].norm() + std::max({p[1].norm(), p[2].norm(), p[3].norm()});
-  return additive_ccd(point_triangle_distance2, x, dx, l_p, separation, reduction);
+  return additive_ccd(point_triangle_distance2, x, dx, l_p, separation, reduction, up_to);
 }
 
-double edge_edge_impact(const Vec3 x[4], const Vec3 dx[4], double separation, double reduction) {
+double edge_edge_impact(const Vec3 x[4], const Vec3 dx[4], double separation, double reduction, double up_to) {
   Vec3 p[4];
   relative_steps(dx, p);
   // A point of either edge moves by a convex combination of its ends' steps.
   const double l_p = std::max(p[0].norm(), p[1].norm()) + std::max(p[2].norm(), p[3].norm());
-  return additive_ccd(edge_edge_distance2, x, dx, l_p, separation, reduction);
+  return additive_ccd(edge_edge_distance2, x, dx, l_p, separation, reduction, up_to);
 }
 
 }  // namespace arap::contact

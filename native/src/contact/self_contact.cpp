@@ -392,7 +392,8 @@ void SelfContact::sweep(const double* P0, const double* P1, bool moving, ListAt 
     if (moving) {
       const bool still = dx[0].isZero(0) && dx[1].isZero(0) && dx[2].isZero(0) && dx[3].isZero(0);
       const double t = still ? 1.0
-                             : point_triangle ? point_triangle_impact(x, dx, gap_) : edge_edge_impact(x, dx, gap_);
+                             : point_triangle ? point_triangle_impact(x, dx, gap_, kImpactReduction, step.fraction)
+                                            : edge_edge_impact(x, dx, gap_, kImpactReduction, step.fraction);
       if (t < step.fraction) {
         step.fraction = t;
         std::copy(v, v + 4, step.blocking);
