@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <set>
 #include <utility>
@@ -341,6 +342,80 @@ namespace {
 // The list of near pairs kept between steps misses nothing: a long run of
 // random moves checked by one SelfContact gives, step by step, what a fresh one
 // (its list made for that step alone) gives.
+// The barrier summed over every pair of the surface by brute force: each point
+// against each triangle not holding it, each edge against each edge sharing no
+// vertex, pairs nearer than the activation distance at rest left out; infinite
+// once a pair is within the gap (a state no step may reach).
+double brute_force_barrier(const Points& rest, const Points& P, const Triangles& T, double activation, double gap) {
+  using arap::contact::Vec3;
+  auto at = [](const Points& X, int v) { return Vec3(X.row(v).transpose()); };
+  auto barrier = [&](double d) {
+    if (!(d > gap)) return std::numeric_limits<double>::infinity();
+    return d < activation ? -(d - activation) * (d - activation) * std::log(d / activation) : 0.0;
+  };
+  std::set<std::pair<int, int>> edge_set;
+  for (Eigen::Index f = 0; f < T.rows(); ++f)
+    for (int k = 0; k < 3; ++k) edge_set.insert(std::minmax(T(f, k), T(f, (k + 1) % 3)));
+  const std::vector<std::pair<int, int>> edges(edge_set.begin(), edge_set.end());
+  std::set<int> surface;
+  for (Eigen::Index f = 0; f < T.rows(); ++f)
+    for (int k = 0; k < 3; ++k) surface.insert(T(f, k));
+  double w[4], sum = 0;
+  for (int v : surface)
+    for (Eigen::Index f = 0; f < T.rows(); ++f) {
+      if (v == T(f, 0) || v == T(f, 1) || v == T(f, 2)) continue;
+      auto d2 = [&](const Points& X) {
+        return arap::contact::point_triangle_distance2(at(X, v), at(X, T(f, 0)), at(X, T(f, 1)), at(X, T(f, 2)), w);
+      };
+      if (d2(rest) >= activation * activation) sum += barrier(std::sqrt(d2(P)));
+    }
+  for (size_t i = 0; i < edges.size(); ++i)
+    for (size_t j = i + 1; j < edges.size(); ++j) {
+      const int a0 = edges[i].first, a1 = edges[i].second, b0 = edges[j].first, b1 = edges[j].second;
+      if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) continue;
+      auto d2 = [&](const Points& X) {
+        return arap::contact::edge_edge_distance2(at(X, a0), at(X, a1), at(X, b0), at(X, b1), w);
+      };
+      if (d2(rest) >= activation * activation) sum += barrier(std::sqrt(d2(P)));
+    }
+  return sum;
+}
+
+// The pair search (a tree over the surface, near pairs listed with a margin)
+// finds every pair the barrier counts, each once: its energy is the brute-force
+// sum over all pairs, on poses folded into contact with noise on top.
+TEST(ContactPairList, TheSearchFindsEveryNearPairOnce) {
+  const Scene s = bent_bar(kFold, 200, kKeepSize);
+  const double size = 5.0;
+  const Points rest = s.rest / size;
+  arap::contact::SelfContact contact;
+  contact.bind(rest, s.triangles, 1.0);
+  std::mt19937 random(11);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const double edge = mean_edge_length(rest, s.triangles);
+  const int poses = arap_test::kSanitizerBuild ? 4 : 12;
+  int near = 0;
+  for (int k = 0; k < poses; ++k) {
+    // Folded sideways and down by a growing share, so that the top meets the side, plus noise of a tenth of an edge.
+    Points P = rest;
+    const double share = 0.3 + 0.45 * k / poses;
+    for (Eigen::Index v = 0; v < P.rows(); ++v) {
+      const double h = rest(v, 2);
+      P.row(v) += share * h * h * Eigen::RowVector3d(0.5, 0.0, -0.6) +
+                  0.1 * edge * Eigen::RowVector3d(noise(random), noise(random), noise(random));
+    }
+    const double expected = brute_force_barrier(rest, P, s.triangles, contact.activation(), contact.gap());
+    const double found = contact.energy(P.data());
+    if (!std::isfinite(expected)) {
+      EXPECT_EQ(found, expected) << "pose " << k << ": a pair within the gap was missed";
+      continue;
+    }
+    ASSERT_NEAR(found, expected, 1e-9 * (1 + std::abs(expected))) << "pose " << k;
+    near += expected > 0;
+  }
+  EXPECT_GE(near, poses / 3) << "too few poses brought pairs within the activation distance";
+}
+
 TEST(ContactPairList, AKeptListSeesWhatAFreshOneSees) {
   const Scene s = bent_bar(kFold, 300);
   const double size = 5.0;
