@@ -339,9 +339,6 @@ TEST(ContactSolver, ChangingTheContactModeNeedsABind) {
 
 namespace {
 
-// The list of near pairs kept between steps misses nothing: a long run of
-// random moves checked by one SelfContact gives, step by step, what a fresh one
-// (its list made for that step alone) gives.
 // The barrier summed over every pair of the surface by brute force: each point
 // against each triangle not holding it, each edge against each edge sharing no
 // vertex, pairs nearer than the activation distance at rest left out; infinite
@@ -416,6 +413,9 @@ TEST(ContactPairList, TheSearchFindsEveryNearPairOnce) {
   EXPECT_GE(near, poses / 4) << "too few poses brought pairs within the activation distance";
 }
 
+// The list of near pairs kept between steps misses nothing: a long run of
+// random moves checked by one SelfContact gives, step by step, what a fresh one
+// (its list made for that step alone) gives.
 TEST(ContactPairList, AKeptListSeesWhatAFreshOneSees) {
   const Scene s = bent_bar(kFold, 300);
   const double size = 5.0;
