@@ -24,7 +24,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from volume_table import all_cases, measure, save_results, write_table  # noqa: E402
 
 RUNS = (("none", "none"), ("none", "self"), ("infill", "none"), ("infill", "self"))  # (volume, contact)
-REPORTED = ("iterations", "converged", "contact_rounds", "contact_reached", "contact_pairs", "contact_steps_cut",
+REPORTED = ("iterations", "converged", "contact_free_iterations", "contact_rounds", "contact_reached", "contact_pairs", "contact_steps_cut",
             "vertices")
 
 
@@ -51,6 +51,8 @@ def main():
     parser.add_argument("--only", nargs="*", help="names of the cases to run (default all)")
     parser.add_argument("--surface-only", action="store_true", help="skip the --volume infill runs")
     parser.add_argument("--timeout", type=float, default=600, help="seconds a solve may take (default 600)")
+    parser.add_argument("--procedural-vertices", type=int, default=2000,
+                        help="about how many vertices the procedural meshes have (default 2000)")
     parser.add_argument("--table", action="store_true", help="only write the table again from OUT/contact.json")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
@@ -60,7 +62,7 @@ def main():
         return
     runs = RUNS[:2] if args.surface_only else RUNS
     results = []
-    for name, k, inputs, rest in all_cases(args.build, args.scenarios, args.out):
+    for name, k, inputs, rest in all_cases(args.build, args.scenarios, args.out, args.procedural_vertices):
         if args.only and name.rsplit("_x", 1)[0] not in args.only:
             continue
         row = {"case": name.rsplit("_x", 1)[0], "factor": k}

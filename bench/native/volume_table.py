@@ -88,8 +88,8 @@ def by_height(vertices, axis, low, high):
     return fixed, handle
 
 
-def procedural_cases(build, out_dir):
-    """(name, mesh, fixed file, handle file, translation at x1) of the procedural meshes."""
+def procedural_cases(build, out_dir, vertices=2000):
+    """(name, mesh, fixed file, handle file, translation at x1) of the procedural meshes, about `vertices` each."""
     make = os.path.join(build, "arap-make-mesh")
     cases = []
 
@@ -108,11 +108,11 @@ def procedural_cases(build, out_dir):
         cases.append((name, mesh, os.path.join(out_dir, name + ".fixed.txt"),
                       os.path.join(out_dir, name + ".handle.txt"), translate))
 
-    bar_v, bar_f = made("bar", "bar", "--vertices", "2000")
+    bar_v, bar_f = made("bar", "bar", "--vertices", str(vertices))
     add("bar", bar_v, bar_f, (2.0, 0.0, -1.0))
-    cyl_v, cyl_f = made("cylinder", "cylinder", "--vertices", "2000")
+    cyl_v, cyl_f = made("cylinder", "cylinder", "--vertices", str(vertices))
     add("cylinder", cyl_v, cyl_f, (2.0, 0.0, -1.0))
-    sph_v, sph_f = made("sphere", "sphere", "--vertices", "2000")
+    sph_v, sph_f = made("sphere", "sphere", "--vertices", str(vertices))
     add("sphere", sph_v, sph_f, (0.0, 0.0, -0.4))
     # The cylinder without its caps (and their centre vertices): an open tube.
     centres = {len(cyl_v) - 2, len(cyl_v) - 1}
@@ -133,7 +133,7 @@ def procedural_cases(build, out_dir):
     return cases
 
 
-def all_cases(build, scenarios, out):
+def all_cases(build, scenarios, out, procedural_vertices=2000):
     """(name, factor, arap-deform inputs, rest mesh) of every case: the scenarios of the folder (bar1_x2 and
     bar1_x3 are bar1 x2 and x3, so they are not run twice) and the procedural meshes, each times 1, 2 and 3."""
     cases = []
@@ -143,7 +143,7 @@ def all_cases(build, scenarios, out):
         for k in FACTORS:
             name, path, mesh = scaled_scenario(os.path.join(scenarios, file), k, out)
             cases.append((name, k, ["--scenario", path], mesh))
-    for name, mesh, fixed, handle, translate in procedural_cases(build, out):
+    for name, mesh, fixed, handle, translate in procedural_cases(build, out, procedural_vertices):
         for k in FACTORS:
             t = ",".join("%.17g" % (k * x) for x in translate)
             cases.append(("%s_x%d" % (name, k), k, [mesh, "--fixed", fixed, "--handle", handle, "--translate", t],

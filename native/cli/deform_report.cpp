@@ -48,6 +48,7 @@ nlohmann::json make_report(const RunInfo& run, const Solver& solver, const Solve
   r["contact_steps_cut"] = stats.contact_steps_cut;
   r["contact_lists"] = stats.contact_lists;
   r["contact_rounds"] = stats.contact_rounds;
+  r["contact_free_iterations"] = stats.contact_free_iterations;
   r["contact_reached"] = stats.contact_reached;
   r["contact_stopped_vertex"] = stats.contact_stopped_vertex;
   r["solve_cpu_ms"] = run.solve_cpu_ms;

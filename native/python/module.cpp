@@ -238,6 +238,7 @@ PYBIND11_MODULE(_arap_native, m) {
       .def_readonly("contact_steps_cut", &arap::SolveStats::contact_steps_cut)
       .def_readonly("contact_lists", &arap::SolveStats::contact_lists)
       .def_readonly("contact_rounds", &arap::SolveStats::contact_rounds)
+      .def_readonly("contact_free_iterations", &arap::SolveStats::contact_free_iterations)
       .def_readonly("contact_reached", &arap::SolveStats::contact_reached,
                     "contact self: the share of their moves the constrained vertices made (1: targets met)")
       .def_readonly("contact_stopped_vertex", &arap::SolveStats::contact_stopped_vertex,

@@ -189,6 +189,15 @@ struct Solver::Impl {
   double contact_reached = 1;
   int contact_stopped_vertex = -1;
   int contact_settling = 0;  // iterations in a row whose step was cut and lowered the energy by at most the tolerance
+  // A cold solve with contact first runs without the barrier; while it does,
+  // contact_deferred (and the start it came from, contact_deferred_guess).
+  // Its result, when clear, is where the solve with contact starts (see
+  // contact_free_part_done()); chunks of it are resumed like any solve's.
+  bool contact_deferred = false;
+  InitialGuess contact_deferred_guess = InitialGuess::Naive;
+
+  // Whether the barrier and the collision checks take part in this iteration.
+  bool contact_on() const { return contact.active() && !contact_deferred; }
 
   void gather_free(std::vector<double>& out) const {
     for (size_t r = 0; r < mesh.free_vertices.size(); ++r)
@@ -229,7 +238,7 @@ struct Solver::Impl {
     const auto t = Clock::now();
     half_gradient(mesh, state.data(), rotations.data(), qn_g.data(), options.threads);
     if (bulk.active()) bulk.add_half_gradient(state.data(), qn_g.data());
-    if (contact.active()) {
+    if (contact_on()) {
       contact.add_half_gradient(mesh.free_row, qn_g.data());  // the pairs of the local() that came before
       contact_from = state;
     }
@@ -293,7 +302,7 @@ struct Solver::Impl {
       stats.volume_ms += ms_since(t);
       if (!on_constraint) return std::numeric_limits<double>::infinity();
     }
-    if (!contact.active()) return local(stats);
+    if (!contact_on()) return local(stats);
     contact_fraction = 1;
     const double surface = local_without_contact(stats);
     if (!(surface <= refused_above)) return surface;
@@ -312,7 +321,7 @@ struct Solver::Impl {
   // The next, shorter trial step after `alpha` failed: cut to the safe share
   // when a pair stopped it, else `fallback`.
   double shorter_step(double alpha, double fallback) const {
-    if (contact.active() && contact_fraction < 1) return kContactBackoff * contact_fraction * alpha;
+    if (contact_on() && contact_fraction < 1) return kContactBackoff * contact_fraction * alpha;
     return fallback;
   }
 
@@ -375,7 +384,7 @@ struct Solver::Impl {
     // The plain step lowers the energy on the tangent plane; its return onto the
     // volume constraint is of second order in the step: a shorter step always does.
     // With contact, the global step does not see the barrier: a shorter step does too.
-    for (int k = 0; (volume.active() || contact.active()) && k < kVolumeBacktracks && !(next <= energy); ++k) {
+    for (int k = 0; (volume.active() || contact_on()) && k < kVolumeBacktracks && !(next <= energy); ++k) {
       alpha = shorter_step(alpha, 0.5 * alpha);
       ++stats.line_search_steps;
       next = trial(alpha, stats, energy);
@@ -393,7 +402,7 @@ struct Solver::Impl {
     double* y = lbfgs.next_y();
     half_gradient(mesh, state.data(), rotations.data(), y, options.threads);
     if (bulk.active()) bulk.add_half_gradient(state.data(), y);
-    if (contact.active()) {
+    if (contact_on()) {
       contact.add_half_gradient(mesh.free_row, y);  // the pairs of the accepted trial
       contact_from = state;
     }
@@ -539,6 +548,36 @@ struct Solver::Impl {
     return is;
   }
 
+  // The end of a cold solve's first part, run without the barrier (at its stop
+  // or at the iteration cap). A result that crosses nothing and has no pair
+  // within the barrier's reach is kept: the barrier is zero around it, so it is
+  // a stationary point with contact too, and no step of the solve is shown. A
+  // clear one with pairs in reach is where the solve with contact starts; one
+  // that is not clear leaves the usual cold start (reach_first_guess()).
+  // Returns whether to iterate on, `energy` then the energy of the start.
+  bool contact_free_part_done(SolveStats& stats, const std::function<bool()>& out_of_time, bool& interrupted,
+                              double& energy) {
+    contact_deferred = false;
+    contact_settling = 0;
+    const auto t = Clock::now();
+    const bool is_clear = contact.is_clear(state.data());
+    const double barrier = is_clear ? contact.energy(state.data()) : 0.0;
+    stats.contact_ms += ms_since(t);
+    if (is_clear && barrier == 0) return false;
+    if (!is_clear) {
+      std::fill(eigenvalues.begin(), eigenvalues.end(), 0.0);  // as a cold start: no hint of that solve
+      contact_from = mesh.rest;
+      apply_targets(targets, state);
+      first_guess(contact_deferred_guess);
+      if (volume.active()) project_volume(stats);
+      reach_first_guess(false, stats, out_of_time, interrupted);
+    }
+    energy = local(stats);
+    start_quasi_newton(stats);
+    qn_slope = quasi_newton_direction(stats);
+    return true;
+  }
+
   // The input index of a user-constrained vertex still short of its target:
   // one of the pair that stopped a step if it has one, else the nearest to that pair.
   int stopping_vertex(const contact::SelfContact::Step& step) const {
@@ -610,7 +649,7 @@ struct Solver::Impl {
   // The energy at the current state (the contact barrier's too), its rotations left for the next gradient.
   double local(SolveStats& stats) {
     double e = local_without_contact(stats);
-    if (contact.active()) {
+    if (contact_on()) {
       const auto t = Clock::now();
       e += contact.energy(state.data());
       stats.contact_ms += ms_since(t);
@@ -767,6 +806,18 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
         guess == InitialGuess::WarmStart && s.rotations_valid && s.options.max_iterations > 0;
     // A cold start forgets every hint of the last solve: same input, same output bit for bit.
     if (guess != InitialGuess::WarmStart) std::fill(s.eigenvalues.begin(), s.eigenvalues.end(), 0.0);
+    // Volume::Global runs on the quasi-Newton path (local/global: without its history), see volume.h.
+    const bool quasi_newton =
+        s.options.method == Method::QuasiNewton ||
+        ((s.volume.active() || s.bulk.active() || s.contact.active()) && s.options.method == Method::LocalGlobal);
+    const bool resume = quasi_newton && guess == InitialGuess::WarmStart && s.qn_resumable &&
+                        s.last_targets.rows() == targets.rows() && s.last_targets == targets;
+    // A cold solve with contact runs without the barrier first (contact_free_part_done()).
+    if (!resume) {
+      s.contact_deferred = s.contact.active() && quasi_newton && guess != InitialGuess::WarmStart &&
+                           s.options.max_iterations > 0;
+      s.contact_deferred_guess = guess;
+    }
     if (s.contact.active() && !(s.contact_round_targets.rows() == s.targets.rows() &&
                                 s.contact_round_targets == s.targets)) {
       s.contact_round_targets = s.targets;
@@ -776,7 +827,7 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       // Steps start from a clear state: the last solution, or the rest shape for a cold start
       // (which must not depend on what came before) and after set_positions() left a crossing.
       const bool warm = guess == InitialGuess::WarmStart;
-      if (warm && !s.contact_clear) s.contact_clear = s.contact.is_clear(s.state.data());
+      if (warm && !s.contact_clear && !s.contact_deferred) s.contact_clear = s.contact.is_clear(s.state.data());
       if (warm && s.contact_clear) s.contact_from = s.state;
       else s.contact_from = s.mesh.rest;
       s.contact_clear = false;  // until this solve ends well
@@ -786,10 +837,6 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     stats.init_ms = ms_since(t);
     shared_->iterations.store(0, std::memory_order_relaxed);
 
-    // Volume::Global runs on the quasi-Newton path (local/global: without its history), see volume.h.
-    const bool quasi_newton =
-        s.options.method == Method::QuasiNewton ||
-        ((s.volume.active() || s.bulk.active() || s.contact.active()) && s.options.method == Method::LocalGlobal);
     const auto out_of_time = [&] {
       return (s.options.time_budget_ms > 0 && ms_since(solve_start) >= s.options.time_budget_ms) ||
              shared_->stop.load(std::memory_order_relaxed);
@@ -797,12 +844,10 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
 
     s.qn_history = s.options.method == Method::QuasiNewton;
     double previous_energy = std::numeric_limits<double>::quiet_NaN();
-    const bool resume = quasi_newton && guess == InitialGuess::WarmStart && s.qn_resumable &&
-                        s.last_targets.rows() == targets.rows() && s.last_targets == targets;
     s.qn_resumable = false;  // until this solve ends well
     if (!resume) s.contact_settling = 0;
     if (resume) {
-      if (s.contact.active()) {
+      if (s.contact_on()) {
         // Where the last solve stopped the handles short of these targets, they stay.
         s.state = s.contact_from;
         s.couple(s.state);
@@ -814,9 +859,9 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       // It starts from a point with known energy and gradient. A warm start first
       // carries the moved targets through the mesh with one global step on the
       // last rotations (as the plain iteration's first step does).
-      if (reuse_rotations && !s.contact.active()) s.global_step(stats);
+      if (reuse_rotations && !s.contact_on()) s.global_step(stats);
       if (s.volume.active()) s.project_volume(stats);
-      if (s.contact.active())
+      if (s.contact_on())
         s.reach_first_guess(guess == InitialGuess::WarmStart, stats, out_of_time, contact_interrupted);
       previous_energy = stats.initial_energy = s.local(stats);
       s.start_quasi_newton(stats);
@@ -861,12 +906,24 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       stats.iterations = it + 1;
       shared_->energy.store(energy_to_user_units(e, s.unit), std::memory_order_relaxed);
       shared_->iterations.store(it + 1, std::memory_order_relaxed);
+      if (stats.converged && s.contact_deferred) {
+        stats.contact_free_iterations = it + 1;
+        stats.converged = !s.contact_free_part_done(stats, out_of_time, contact_interrupted, e);
+      }
       if (stats.converged) break;
       previous_energy = e;
       if (s.options.time_budget_ms > 0 && ms_since(solve_start) >= s.options.time_budget_ms) break;
       if (shared_->stop.load(std::memory_order_relaxed)) break;
     }
     s.last_energy = stats.energy.empty() ? stats.initial_energy : stats.energy.back();
+    // Stopped just after the solve with contact began: the state is its start.
+    if (!stats.converged && !stats.energy.empty()) s.last_energy = previous_energy;
+    if (s.contact_deferred && !out_of_time()) {
+      // The iteration cap came first: the part without the barrier ends there
+      // (its result kept or the start it leads to returned, unconverged).
+      stats.contact_free_iterations = stats.iterations;
+      s.contact_free_part_done(stats, out_of_time, contact_interrupted, s.last_energy);
+    }
     if (s.volume.active()) stats.volume_drift = s.volume.drift(s.state.data());
     // Finite in internal units is not enough: times `unit` it must stay finite too.
     if (!s.state.allFinite() || !std::isfinite(s.state.cwiseAbs().maxCoeff() * s.unit) ||
@@ -878,10 +935,14 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     s.rotations_valid = false;
     throw;
   }
-  to_input(s.mesh, s.state, s.positions);
-  if (s.unit != 1.0) s.positions *= s.unit;
+  // Stopped while still without the barrier: that pose may cross, the positions stay as they were.
+  const bool unchecked = s.contact_deferred;
+  if (!unchecked) {
+    to_input(s.mesh, s.state, s.positions);
+    if (s.unit != 1.0) s.positions *= s.unit;
+  }
   s.has_solution = true;
-  s.contact_clear = s.contact.active();
+  s.contact_clear = s.contact.active() && !unchecked;
   if (contact_interrupted) stats.converged = false;  // the handles are still on their way
   s.contact_reached = stats.contact_reached;
   s.contact_stopped_vertex = stats.contact_stopped_vertex;
@@ -894,7 +955,7 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       (s.options.method == Method::QuasiNewton ||
        ((s.volume.active() || s.bulk.active() || s.contact.active()) && s.options.method == Method::LocalGlobal))) {
     s.qn_resumable = true;
-    s.qn_energy = stats.energy.empty() ? stats.initial_energy : stats.energy.back();
+    s.qn_energy = s.last_energy;
     s.last_targets = targets;
   }
   energies_to_user_units(stats, s.unit);  // after qn_energy: that one stays in internal units

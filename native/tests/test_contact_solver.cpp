@@ -177,8 +177,15 @@ TEST(ContactSolver, ABarFoldedIntoItselfCrossesWithoutContactAndNotWithIt) {
   EXPECT_EQ(r.stats.contact_stopped_vertex, -1);
   EXPECT_LE(largest_constraint_error(s, r.positions), 1e-12 * 5.0);
   EXPECT_GT(r.stats.contact_pairs, 0) << "the pose should rest against itself somewhere";
-  for (size_t k = 1; k < r.stats.energy.size(); ++k)
+  // The solve without the barrier came first (it crosses: the solve with contact started again from the
+  // usual first guess); the energy never rises within either part.
+  const size_t free_part = static_cast<size_t>(r.stats.contact_free_iterations);
+  EXPECT_EQ(free_part, static_cast<size_t>(plain.stats.iterations));
+  ASSERT_LT(free_part, r.stats.energy.size());
+  for (size_t k = 1; k < r.stats.energy.size(); ++k) {
+    if (k == free_part) continue;  // where the barrier comes in
     EXPECT_LE(r.stats.energy[k], r.stats.energy[k - 1]) << "iteration " << k;
+  }
 }
 
 TEST(ContactSolver, LocalGlobalAndVolumeModesKeepTheGuaranteeToo) {
@@ -200,8 +207,72 @@ TEST(ContactSolver, WhereNothingComesNearThePoseIsTheSolveWithoutContact) {
   const Result plain = solve(s, with_contact(Contact::None));
   const Result r = solve(s, with_contact(Contact::Self));
   EXPECT_EQ(r.stats.contact_pairs, 0);
-  EXPECT_LE((r.positions - plain.positions).cwiseAbs().maxCoeff(), 1e-9 * 5.0);
+  EXPECT_EQ(r.positions, plain.positions);  // the solve without contact, kept as it is
   EXPECT_EQ(r.stats.iterations, plain.stats.iterations);
+  EXPECT_EQ(r.stats.contact_free_iterations, plain.stats.iterations);
+}
+
+// A cold solve first runs without the barrier, so its iterates may cross; chunks of it (a time budget, as
+// Auto mode's worker solves) return no such pose, and resumed to the end they give the unchunked result.
+TEST(ContactSolver, AColdSolveInTimedChunksShowsNoCrossingAndEndsAsInOne) {
+  const Scene s = bent_bar(kFold * 0.6);
+  const Result whole = solve(s, with_contact(Contact::Self));
+  Options o = with_contact(Contact::Self);
+  o.init = arap::InitialGuess::WarmStart;  // the first chunk starts cold (no solution yet), the others resume
+  o.time_budget_ms = 0.2;
+  Solver solver;
+  solver.bind(s.rest, s.triangles, s.constrained, o);
+  int chunks = 0;
+  for (bool converged = false; !converged && chunks < 100000; ++chunks) {
+    converged = solver.solve(s.targets).converged;
+    ASSERT_EQ(crossing_pairs(solver.positions(), s.triangles).size(), 0u) << "chunk " << chunks;
+  }
+  EXPECT_GT(chunks, 1) << "the budget should split the solve";
+  EXPECT_EQ(solver.positions(), whole.positions);
+}
+
+// The bar of bent_bar() held as it stands, and a block (every vertex held) brought from afar to half the
+// barrier's reach from its side: the solve without contact crosses nothing but leaves pairs in reach.
+Scene bar_beside_a_block() {
+  Scene s = bent_bar(Eigen::Vector3d::Zero());
+  const Eigen::Index n = s.rest.rows();
+  const arap::procedural::TriMesh block = arap::procedural::make_bar(2, 4, 4, 0.5, 2.0, 1.0);
+  Points rest(n + block.vertices.rows(), 3);
+  rest.topRows(n) = s.rest;
+  rest.bottomRows(block.vertices.rows()) = block.vertices.rowwise() + Eigen::RowVector3d(4.0, -0.5, 2.0);
+  Triangles triangles(s.triangles.rows() + block.triangles.rows(), 3);
+  triangles.topRows(s.triangles.rows()) = s.triangles;
+  triangles.bottomRows(block.triangles.rows()) = block.triangles.array() + static_cast<int>(n);
+  const double reach = arap::contact::kActivationShare * mean_edge_length(rest, triangles);
+  const double side = s.rest.col(0).maxCoeff();  // the bar's +x side
+  std::vector<int> constrained(s.constrained.begin(), s.constrained.begin() + s.fixed_count);
+  for (Eigen::Index v = n; v < rest.rows(); ++v) constrained.push_back(static_cast<int>(v));
+  const int fixed_count = static_cast<int>(constrained.size());
+  constrained.insert(constrained.end(), s.constrained.begin() + s.fixed_count, s.constrained.end());
+  Points targets(static_cast<Eigen::Index>(constrained.size()), 3);
+  for (size_t k = 0; k < constrained.size(); ++k) targets.row(k) = rest.row(constrained[k]);
+  for (Eigen::Index v = n; v < rest.rows(); ++v)  // the block's targets: its -x side half the reach from the bar's
+    targets(s.fixed_count + (v - n), 0) += side + 0.5 * reach - 4.0;
+  return {rest, triangles, constrained, fixed_count, targets};
+}
+
+// Where the solve without contact crosses nothing but brings surfaces within the barrier's reach, the solve
+// with contact goes on from it: no crossing, the constraints met, a pose close to it.
+TEST(ContactSolver, ASolveWithoutContactThatComesNearGoesOnWithTheBarrier) {
+  const Scene s = bar_beside_a_block();
+  const Result plain = solve(s, with_contact(Contact::None));
+  ASSERT_EQ(crossing_pairs(plain.positions, s.triangles).size(), 0u) << "the scene must not cross without contact";
+  const Result r = solve(s, with_contact(Contact::Self));
+  ASSERT_TRUE(r.positions.allFinite());
+  EXPECT_EQ(r.stats.contact_free_iterations, plain.stats.iterations);
+  EXPECT_GT(r.stats.iterations, r.stats.contact_free_iterations) << "the barrier should have had work to do";
+  EXPECT_EQ(r.stats.contact_rounds, 0);
+  EXPECT_EQ(crossing_pairs(r.positions, s.triangles).size(), 0u);
+  EXPECT_LE(largest_constraint_error(s, r.positions), 1e-12 * 5.0);
+  EXPECT_GT(r.stats.contact_pairs, 0);
+  const double moved = (r.positions - plain.positions).rowwise().norm().maxCoeff();
+  EXPECT_GT(moved, 0.0) << "the barrier should push the bar's side away from the block";
+  EXPECT_LT(moved, arap::contact::kActivationShare * mean_edge_length(s.rest, s.triangles));
 }
 
 // Pairs nearer than the activation distance at rest (those that cross among

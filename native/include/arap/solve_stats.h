@@ -28,6 +28,11 @@ struct SolveStats {
   long contact_lists = 0;             // Contact::Self: times the list of near pairs was made (a search of the mesh)
   long contact_steps_cut = 0;         // Contact::Self: trial points refused because a pair would come too close
   int contact_rounds = 0;             // Contact::Self: rounds that moved the handles part of the way (0: none needed)
+  // Contact::Self: a cold solve first runs without the barrier, for this many of `iterations` (energy[0,
+  // this) are theirs). Its pose is kept when it crosses nothing and no pair is within the barrier's reach;
+  // else the solve with contact goes on from it (no crossing) or from the usual first guess, and the
+  // energy can rise there, where the barrier comes in.
+  int contact_free_iterations = 0;
   // Contact::Self: the share of their moves the constrained vertices made (1 = their targets are met). Below 1
   // when reaching the targets would make the surface cross itself: the pose stops short at contact, and
   // contact_stopped_vertex is a constrained vertex (input index) of the pair that stopped it.
