@@ -104,6 +104,13 @@ class Options(unittest.TestCase):
         self.assertEqual(stats.contact_reached, 1.0)
         self.assertEqual(stats.contact_stopped_vertex, -1)
         self.assertTrue(np.all(np.isfinite(solver.positions())))
+        # Nothing comes near: the solve without contact, which ran first, is the result as it is.
+        plain = arap.Solver()
+        plain.bind(rest, tris, np.array([0, 11]))
+        plain_stats = plain.solve(targets)
+        self.assertEqual(stats.contact_free_iterations, stats.iterations)
+        self.assertEqual(stats.iterations, plain_stats.iterations)
+        np.testing.assert_array_equal(solver.positions(), plain.positions())
 
 
 class Solve(unittest.TestCase):
