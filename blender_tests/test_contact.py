@@ -90,6 +90,14 @@ class SelfContact(unittest.TestCase):
         solver = solver_cache._cache[self.obj.as_pointer()][1]
         self.assertEqual(solver.contact, "self")
 
+    def test_where_nothing_comes_near_deform_gives_the_pose_without_self_contact(self):
+        gentle = Matrix.Translation((0.6, 0.0, 1.8))   # a sideways lean: no part comes near another
+        self.deform(gentle, False)
+        free = U.coords(self.obj)
+        self.assertEqual(self.crossings(free), 0)
+        self.deform(gentle, True)
+        np.testing.assert_array_equal(U.coords(self.obj), free)
+
     def test_a_handle_pushed_through_the_mesh_stops_short_and_is_named(self):
         free = self.deform(THROUGH, False)
         self.assertGreater(self.crossings(), 0)
