@@ -176,18 +176,21 @@ TEST(SolveWorker, NewTargetsReplaceTheOldOnesAndSettleInTheBandOfADirectSolve) {
 TEST(SolveWorker, StopEndsALongSolveAndGivesTheSolverBack) {
   const BentTube t;
   arap::Solver solver;
-  solver.bind(t.mesh.V, t.mesh.F, t.constrained, quasi_newton(1000000, 0.0));  // never settles on its own
+  // Tolerance 0: it goes on until the energy stops falling to rounding (on a busy machine that
+  // can come before this thread looks again; stop() must give the solver back either way).
+  solver.bind(t.mesh.V, t.mesh.F, t.constrained, quasi_newton(1000000, 0.0));
   auto worker = std::make_unique<arap::SolveWorker>(solver, 1000000);
   worker->post(t.targets);
   while (worker->progress().iterations < 3) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   EXPECT_GT(worker->progress().energy, 0.0);
-  EXPECT_FALSE(worker->settled());
   worker->stop();
   EXPECT_FALSE(solver.busy());
   EXPECT_THROW(worker->post(t.targets), arap::Error);
   worker.reset();
   solver.options().max_iterations = 5;
-  EXPECT_EQ(solver.solve(t.targets).iterations, 5);  // usable on the caller's thread again
+  const int iterations = solver.solve(t.targets).iterations;  // usable on the caller's thread again
+  EXPECT_GE(iterations, 1);
+  EXPECT_LE(iterations, 5);
 }
 
 TEST(SolveWorker, RefusesASecondWorkerAndBadTargets) {
