@@ -790,8 +790,10 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     throw Error(ErrorCode::NonFinite, "a target is beyond the double range relative to the mesh's size");
 
   SolveStats stats;
-  stats.energy.reserve(s.options.max_iterations);
-  stats.iteration_ms.reserve(s.options.max_iterations);
+  // With contact a cold solve's two parts each have the cap (see contact_free_part_done()).
+  const size_t most_iterations = static_cast<size_t>(s.options.max_iterations) * (s.contact.active() ? 2 : 1);
+  stats.energy.reserve(most_iterations);
+  stats.iteration_ms.reserve(most_iterations);
   s.state_backup = s.state;  // same size every solve: no allocation; restored if anything below goes wrong
   bool contact_interrupted = false;
   const long contact_lists_before = s.contact.lists_made();
@@ -878,7 +880,8 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     }
     shared_->energy.store(energy_to_user_units(stats.initial_energy, s.unit), std::memory_order_relaxed);
     const double tolerance = s.options.tolerance;
-    for (int it = 0; it < s.options.max_iterations; ++it) {
+    int cap = s.options.max_iterations;
+    for (int it = 0; it < cap; ++it) {
       t = Clock::now();
       double e;
       if (quasi_newton) {
@@ -906,9 +909,14 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       stats.iterations = it + 1;
       shared_->energy.store(energy_to_user_units(e, s.unit), std::memory_order_relaxed);
       shared_->iterations.store(it + 1, std::memory_order_relaxed);
-      if (stats.converged && s.contact_deferred) {
+      if (s.contact_deferred && (stats.converged || it + 1 == cap)) {
+        // The part without contact has settled, or reached the cap: the solve with
+        // contact, when it is needed, has the cap again.
         stats.contact_free_iterations = it + 1;
-        stats.converged = !s.contact_free_part_done(stats, out_of_time, contact_interrupted, e);
+        if (s.contact_free_part_done(stats, out_of_time, contact_interrupted, e)) {
+          stats.converged = false;
+          cap = it + 1 + s.options.max_iterations;
+        }
       }
       if (stats.converged) break;
       previous_energy = e;
@@ -918,12 +926,6 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     s.last_energy = stats.energy.empty() ? stats.initial_energy : stats.energy.back();
     // Stopped just after the solve with contact began: the state is its start.
     if (!stats.converged && !stats.energy.empty()) s.last_energy = previous_energy;
-    if (s.contact_deferred && !out_of_time()) {
-      // The iteration cap came first: the part without the barrier ends there
-      // (its result kept or the start it leads to returned, unconverged).
-      stats.contact_free_iterations = stats.iterations;
-      s.contact_free_part_done(stats, out_of_time, contact_interrupted, s.last_energy);
-    }
     if (s.volume.active()) stats.volume_drift = s.volume.drift(s.state.data());
     // Finite in internal units is not enough: times `unit` it must stay finite too.
     if (!s.state.allFinite() || !std::isfinite(s.state.cwiseAbs().maxCoeff() * s.unit) ||

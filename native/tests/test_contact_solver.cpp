@@ -212,6 +212,22 @@ TEST(ContactSolver, WhereNothingComesNearThePoseIsTheSolveWithoutContact) {
   EXPECT_EQ(r.stats.contact_free_iterations, plain.stats.iterations);
 }
 
+// The iteration cap ends the part without contact as it ends any solve; the solve with contact that
+// follows has the cap again, and what it returns crosses nothing.
+TEST(ContactSolver, EachPartOfAColdSolveHasTheIterationCap) {
+  const Scene s = bent_bar(kFold);
+  Options o = with_contact(Contact::Self);
+  o.max_iterations = 12;
+  const Result r = solve(s, o);
+  ASSERT_TRUE(r.positions.allFinite());
+  EXPECT_EQ(r.stats.contact_free_iterations, 12);
+  EXPECT_GT(r.stats.iterations, 12) << "the solve with contact should have iterated too";
+  EXPECT_LE(r.stats.iterations, 24);
+  EXPECT_FALSE(r.stats.converged);
+  EXPECT_EQ(crossing_pairs(r.positions, s.triangles).size(), 0u);
+  EXPECT_LE(largest_constraint_error(s, r.positions), 1e-12 * 5.0);
+}
+
 // A cold solve first runs without the barrier, so its iterates may cross; chunks of it (a time budget, as
 // Auto mode's worker solves) return no such pose, and resumed to the end they give the unchunked result.
 TEST(ContactSolver, AColdSolveInTimedChunksShowsNoCrossingAndEndsAsInOne) {

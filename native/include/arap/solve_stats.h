@@ -31,7 +31,7 @@ struct SolveStats {
   // Contact::Self: a cold solve first runs without the barrier, for this many of `iterations` (energy[0,
   // this) are theirs). Its pose is kept when it crosses nothing and no pair is within the barrier's reach;
   // else the solve with contact goes on from it (no crossing) or from the usual first guess, and the
-  // energy can rise there, where the barrier comes in.
+  // energy can rise there, where the barrier comes in. Each part has the iteration cap.
   int contact_free_iterations = 0;
   // Contact::Self: the share of their moves the constrained vertices made (1 = their targets are met). Below 1
   // when reaching the targets would make the surface cross itself: the pose stops short at contact, and
