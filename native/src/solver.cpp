@@ -541,9 +541,9 @@ struct Solver::Impl {
     return false;
   }
 
-  bool clear(SolveStats& stats) {
+  bool clear(SolveStats& stats, double* barrier = nullptr) {
     const auto t = Clock::now();
-    const bool is = contact.is_clear(state.data());
+    const bool is = contact.is_clear(state.data(), barrier);
     stats.contact_ms += ms_since(t);
     return is;
   }
@@ -559,23 +559,36 @@ struct Solver::Impl {
                               double& energy) {
     contact_deferred = false;
     contact_settling = 0;
-    const auto t = Clock::now();
-    const bool is_clear = contact.is_clear(state.data());
-    const double barrier = is_clear ? contact.energy(state.data()) : 0.0;
-    stats.contact_ms += ms_since(t);
-    if (is_clear && barrier == 0) return false;
-    if (!is_clear) {
-      std::fill(eigenvalues.begin(), eigenvalues.end(), 0.0);  // as a cold start: no hint of that solve
-      contact_from = mesh.rest;
-      apply_targets(targets, state);
-      first_guess(contact_deferred_guess);
-      if (volume.active()) project_volume(stats);
-      reach_first_guess(false, stats, out_of_time, interrupted);
+    double barrier = 0;
+    if (clear(stats, &barrier)) {
+      if (barrier == 0) return false;
+      energy = start_quasi_newton_here(stats);
+      return true;
     }
-    energy = local(stats);
+    std::fill(eigenvalues.begin(), eigenvalues.end(), 0.0);  // as a cold start: no hint of that solve
+    contact_from = mesh.rest;
+    apply_targets(targets, state);
+    first_guess(contact_deferred_guess);
+    energy = start_quasi_newton_from_guess(false, stats, out_of_time, interrupted);
+    return true;
+  }
+
+  // The first guess in `state` moved onto the volume constraint and, with
+  // contact, made reachable (reach_first_guess()); then the quasi-Newton state
+  // there. Returns its energy.
+  double start_quasi_newton_from_guess(bool warm, SolveStats& stats, const std::function<bool()>& out_of_time,
+                                       bool& interrupted) {
+    if (volume.active()) project_volume(stats);
+    if (contact_on()) reach_first_guess(warm, stats, out_of_time, interrupted);
+    return start_quasi_newton_here(stats);
+  }
+
+  // The energy at `state` and the quasi-Newton state and first direction there.
+  double start_quasi_newton_here(SolveStats& stats) {
+    const double e = local(stats);
     start_quasi_newton(stats);
     qn_slope = quasi_newton_direction(stats);
-    return true;
+    return e;
   }
 
   // The input index of a user-constrained vertex still short of its target:
@@ -862,12 +875,8 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       // carries the moved targets through the mesh with one global step on the
       // last rotations (as the plain iteration's first step does).
       if (reuse_rotations && !s.contact_on()) s.global_step(stats);
-      if (s.volume.active()) s.project_volume(stats);
-      if (s.contact_on())
-        s.reach_first_guess(guess == InitialGuess::WarmStart, stats, out_of_time, contact_interrupted);
-      previous_energy = stats.initial_energy = s.local(stats);
-      s.start_quasi_newton(stats);
-      s.qn_slope = s.quasi_newton_direction(stats);
+      previous_energy = stats.initial_energy = s.start_quasi_newton_from_guess(
+          guess == InitialGuess::WarmStart, stats, out_of_time, contact_interrupted);
     } else if (!reuse_rotations) {
       previous_energy = stats.initial_energy = s.local(stats);
     } else {

@@ -531,9 +531,12 @@ void SelfContact::make_list(const double* at, const double* other) {
 }
 
 
-bool SelfContact::is_clear(const double* P) {
+bool SelfContact::is_clear(const double* P, double* barrier) {
+  if (barrier) *barrier = 0;
   if (!active()) return true;
-  if (evaluate(P, P).fraction < 1) return false;
+  const Step at = evaluate(P, P);
+  if (at.fraction < 1) return false;
+  if (barrier) *barrier = at.energy;
   refit(P, P, 0.5 * activation_);
   bool clear = true;
   for_each_triangle_pair([&](int f, int g) {

@@ -62,7 +62,8 @@ class SelfContact {
   void add_gradient(double* gradient) const;
   // Whether P is a state a step may start from: every watched pair farther
   // apart than the gap and no two triangles crossing that did not cross at rest.
-  bool is_clear(const double* P);
+  // `barrier`, when given and P is clear, gets the barrier energy at P.
+  bool is_clear(const double* P, double* barrier = nullptr);
 
  private:
   struct Box {
