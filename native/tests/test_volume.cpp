@@ -250,6 +250,29 @@ TEST(VolumeInfill, KeepsMoreVolumeAndCrossSectionThanTheSurface) {
             arap::measure::cross_sections(p.mesh.vertices, surface, t).min + 0.05);
 }
 
+// Past 20 000 rows the bind's factor is split in two halves and a separator
+// (linalg/spd_solve.h). The lattice's nodes, each joined to the surface
+// vertices of its cells, make every breadth-first level wide, and such a
+// separator makes the factor several times larger (6x here, 17x and a bind of
+// a minute on a 100k-vertex bar). The factor stays near the surface's.
+TEST(VolumeInfill, ALargeMeshBindsWithAFactorNearTheSurfaces) {
+  const Pose p = bend(arap::procedural::make_bar_with_vertices(30000), Eigen::RowVector3d(2, 0, -1));
+  long nonzeros[2] = {};
+  int k = 0;
+  for (Volume volume : {Volume::None, Volume::Infill}) {
+    arap::Solver solver;
+    Options o;
+    o.volume = volume;
+    o.max_iterations = 5;
+    solver.bind(p.mesh.vertices, p.mesh.triangles, p.constrained, o);
+    solver.solve(p.targets);
+    EXPECT_TRUE(solver.positions().allFinite());
+    nonzeros[k++] = solver.factor_nonzeros();
+  }
+  ASSERT_GT(nonzeros[0], 0);
+  EXPECT_LT(nonzeros[1], 1.5 * nonzeros[0]) << nonzeros[0];
+}
+
 TEST(VolumeInfill, PosesOpenAndSelfIntersectingInputs) {
   const TriMesh bar = arap::procedural::make_bar_with_vertices(400);
   // Two bars through each other (the second one moved half a bar sideways), and an open tube.

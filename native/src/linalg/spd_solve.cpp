@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
@@ -60,10 +61,19 @@ std::vector<int> amd_order(const Eigen::SparseMatrix<double>& A, const std::vect
   return out;
 }
 
+// A separator wider than this many times sqrt(rows) is not used: the matrix
+// stays whole. On a surface a level is a ring of about 1-2 sqrt(rows) rows;
+// hubs make levels wide (Volume Infill's lattice nodes, each joined to the
+// surface vertices of its cells, give about 30 sqrt(rows)), and a wide
+// separator ordered after both halves fills the factor many times over
+// (docs/engine_internals.md).
+constexpr double kWidestSeparator = 4;
+
 // Rows of A split into two halves and a separator: breadth-first levels from
 // row 0 (and from the first unreached row of every further component); the
 // level at which half of the rows are reached is the separator, since edges
-// only join rows of the same or adjacent levels.
+// only join rows of the same or adjacent levels. All rows go to part[0] when
+// that level is wider than kWidestSeparator sqrt(rows).
 void split(const Eigen::SparseMatrix<double>& A, std::vector<int> part[3]) {
   const int n = static_cast<int>(A.rows());
   std::vector<int> level(n, -1), queue;
@@ -81,6 +91,11 @@ void split(const Eigen::SparseMatrix<double>& A, std::vector<int> part[3]) {
   for (int l : level) ++count[l];
   int cut = 0;
   for (int below = 0; cut < levels && below + count[cut] < n / 2; ++cut) below += count[cut];
+  if (cut < levels && count[cut] > kWidestSeparator * std::sqrt(static_cast<double>(n))) {
+    part[0].resize(n);
+    for (int v = 0; v < n; ++v) part[0][v] = v;
+    return;
+  }
   for (int v = 0; v < n; ++v) part[level[v] < cut ? 0 : level[v] > cut ? 1 : 2].push_back(v);
 }
 
