@@ -120,6 +120,33 @@ TEST(BlockCholesky, DenseBlockSolvesLikeEigen) {
   expect_solves_like_eigen(A);
 }
 
+// Eigen's AMD hashes a node by the sum of its neighbours' indices. Here four
+// hubs of 6 000 neighbours each, all among the last rows of a 400 000-row
+// chain, give sums past 2^31 (a 32-bit sum overflows: UBSan stops the
+// sanitizer build there); row 0, joined to every row, makes each
+// breadth-first level wide, so the whole matrix is ordered at once.
+TEST(BlockCholesky, HubsInAMatrixOfHundredsOfThousandsOfRowsAreOrderedSafely) {
+  const int chain = 400000, hubs = 4, spokes = 6000;
+  const int n = chain + hubs;
+  std::vector<Eigen::Triplet<double>> t;
+  auto couple = [&](int a, int b, double w) {
+    t.emplace_back(a, b, -w), t.emplace_back(b, a, -w), t.emplace_back(a, a, w), t.emplace_back(b, b, w);
+  };
+  for (int i = 0; i + 1 < chain; ++i) couple(i, i + 1, 1.0);
+  for (int i = 2; i < n; ++i) couple(0, i, 1e-3);
+  for (int h = 0; h < hubs; ++h)
+    for (int k = 0; k < spokes; ++k) couple(chain + h, chain - hubs * spokes + h * spokes + k, 0.5);
+  for (int i = 0; i < n; ++i) t.emplace_back(i, i, 1e-2);
+  Sparse A(n, n);
+  A.setFromTriplets(t.begin(), t.end());
+  arap::BlockCholesky chol;
+  ASSERT_TRUE(chol.factor(A));
+  EXPECT_EQ(chol.first_half(), n);  // not split
+  const Eigen::MatrixXd b = random_rhs(n, 21);
+  const Eigen::MatrixXd x = solve(chol, b, 1);
+  EXPECT_LT((A * x - b).norm(), 1e-10 * b.norm());
+}
+
 TEST(BlockCholesky, RefusesMatricesThatAreNotPositiveDefinite) {
   arap::BlockCholesky chol;
   // A graph Laplacian shifted down: indefinite, yet every diagonal entry positive.

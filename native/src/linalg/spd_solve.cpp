@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
@@ -17,26 +18,26 @@ namespace arap {
 
 namespace {
 
-using Permutation = Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int>;
 
 // AMD order of the rows `rows` of A (both triangles), as indices into A.
 // A's pattern is already symmetric, so Eigen's AMD runs on it directly,
 // without AMDOrdering's A + A^T. AMD only reads the pattern and works in
 // place with some elbow room: its input is a pattern-only copy (one byte per
 // value) allocated with that room, so AMD does not reallocate and copy it.
-std::vector<int> amd_order(const Eigen::SparseMatrix<double>& A, const std::vector<int>& rows,
-                           std::vector<int>& local) {
+// Index: the pattern's index type, which Eigen's AMD also sums indices in (below).
+template <class Index>
+std::vector<int> amd_order_in(const Eigen::SparseMatrix<double>& A, const std::vector<int>& rows,
+                              std::vector<int>& local) {
   const int m = static_cast<int>(rows.size());
-  if (m == 0) return {};
   const bool whole = m == A.rows();  // the whole matrix, rows in order
   for (int k = 0; k < m && !whole; ++k) local[rows[k]] = k;
   long entries = 0;
   for (int k = 0; k < m; ++k) entries += A.outerIndexPtr()[rows[k] + 1] - A.outerIndexPtr()[rows[k]];
-  Eigen::SparseMatrix<char> pattern(m, m);
+  Eigen::SparseMatrix<char, Eigen::ColMajor, Index> pattern(m, m);
   pattern.reserve(entries + entries / 5 + 2 * m);  // Eigen's AMD grows the storage to this
-  int* inner = pattern.innerIndexPtr();
-  int* outer = pattern.outerIndexPtr();
-  prefault(inner, sizeof(int) * entries);
+  Index* inner = pattern.innerIndexPtr();
+  Index* outer = pattern.outerIndexPtr();
+  prefault(inner, sizeof(Index) * entries);
   long p = 0;
   outer[0] = 0;
   for (int k = 0; k < m; ++k) {
@@ -50,15 +51,29 @@ std::vector<int> amd_order(const Eigen::SparseMatrix<double>& A, const std::vect
         if (local[*i] >= 0) inner[p++] = local[*i];
       std::sort(inner + begin, inner + p);
     }
-    outer[k + 1] = static_cast<int>(p);
+    outer[k + 1] = static_cast<Index>(p);
   }
   pattern.resizeNonZeros(p);
-  Permutation Pinv;
+  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, Index> Pinv;
   Eigen::internal::minimum_degree_ordering(pattern, Pinv);  // Pinv.indices()[new] = old
   std::vector<int> out(m);
-  for (int k = 0; k < m; ++k) out[k] = rows[Pinv.indices()[k]];
+  for (int k = 0; k < m; ++k) out[k] = rows[static_cast<size_t>(Pinv.indices()[k])];
   for (int k = 0; k < m && !whole; ++k) local[rows[k]] = -1;
   return out;
+}
+
+// Eigen's AMD hashes each node by the sum of its neighbours' indices, in the
+// pattern's index type, before taking it modulo the rows: with 32-bit indices
+// a long list (a hub's, such as Volume Infill's lattice nodes on a mesh of a
+// million vertices) overflows into a negative bucket and writes out of
+// bounds. From 46 341 rows, where rows * rows passes 2^31, the pattern has
+// 64-bit indices; the sums are then exact and the order is the same as with
+// 32-bit indices wherever those did not overflow.
+std::vector<int> amd_order(const Eigen::SparseMatrix<double>& A, const std::vector<int>& rows,
+                           std::vector<int>& local) {
+  if (rows.empty()) return {};
+  const double m = static_cast<double>(rows.size());
+  return m * m < 2147483648.0 ? amd_order_in<int>(A, rows, local) : amd_order_in<std::int64_t>(A, rows, local);
 }
 
 // A separator wider than this many times sqrt(rows) is not used: the matrix
