@@ -12,8 +12,10 @@
 // the matrix graph): each half is ordered on its own (by AMD, or for the
 // largest matrices by nested dissection: see Ordering) and the separator
 // comes last, so the factor has no entry coupling the halves and the two
-// halves of each triangular solve can run on two threads. The split does not
-// depend on the thread count: the result is the same bit for bit.
+// halves of each triangular solve can run on two threads. A level much wider
+// than a surface's ring (hubs, such as Volume Infill's lattice nodes) would
+// fill the factor: such a matrix stays whole. The split does not depend on
+// the thread count: the result is the same bit for bit.
 //
 // The numeric factorization is supernodal (supernodal_cholesky.h); Eigen's
 // simplicial one, column by column, stays selectable for comparison.
