@@ -7,9 +7,11 @@
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "arap/errors.h"
 #include "arap/procedural.h"
@@ -116,6 +118,63 @@ TEST(MemoryLimit, WithRoomEnoughTheBindGoesAhead) {
         limit_address_space(size_t(400) << 20);
         arap::Solver solver = bound_to(mesh);
         std::exit(solver.is_bound() ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
+}
+
+// A fan of n slivers around one vertex, ringed by a band of n quads out to
+// twice its radius: the mean edge is about 0.6 of the radius, the slivers
+// 1/n of a turn wide, so each rim vertex has thousands of triangles within
+// Self Contact's reach (docs/contact.md, Limits).
+arap::procedural::TriMesh sliver_fan(int n) {
+  arap::procedural::TriMesh m;
+  m.vertices.resize(1 + 2 * n, 3);
+  m.vertices.row(0) << 0, 0, 0;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * 3.14159265358979 * i / n;
+    m.vertices.row(1 + i) << std::cos(a), std::sin(a), 0;
+    m.vertices.row(1 + n + i) << 2 * std::cos(a), 2 * std::sin(a), 0;
+  }
+  m.triangles.resize(3 * n, 3);
+  for (int i = 0; i < n; ++i) {
+    const int j = (i + 1) % n;
+    m.triangles.row(i) << 0, 1 + i, 1 + j;
+    m.triangles.row(n + 2 * i) << 1 + i, 1 + n + i, 1 + j;
+    m.triangles.row(n + 2 * i + 1) << 1 + j, 1 + n + i, 1 + n + j;
+  }
+  return m;
+}
+
+// Self Contact's list of near pairs grows only while it fits: on the sliver
+// fan it would need hundreds of MB; with 64 MB left the solve is refused with
+// the typed error, the positions are what they were, and a solve with
+// contact off then works.
+TEST(MemoryLimit, SelfContactRefusesAListThatDoesNotFit) {
+  if (arap_test::kSanitizerBuild) GTEST_SKIP() << "the address space is not limited under a sanitizer";
+  EXPECT_EXIT(
+      {
+        const arap::procedural::TriMesh fan = sliver_fan(3000);
+        std::vector<int> rim;
+        for (int i = 0; i < 3000; i += 2) rim.push_back(1 + 3000 + i);
+        arap::Points targets(static_cast<Eigen::Index>(rim.size()), 3);
+        for (size_t k = 0; k < rim.size(); ++k)
+          targets.row(static_cast<Eigen::Index>(k)) = fan.vertices.row(rim[k]) + Eigen::RowVector3d(0, 0, 0.3);
+        arap::Options o;
+        o.contact = arap::Contact::Self;
+        o.max_iterations = 5;
+        arap::Solver solver;
+        solver.bind(fan.vertices, fan.triangles, rim, o);
+        limit_address_space(size_t(64) << 20);
+        bool refused = false;
+        try {
+          solver.solve(targets);
+        } catch (const arap::Error& e) {
+          std::fprintf(stderr, "%s\n", e.what());
+          refused = e.code() == arap::ErrorCode::OutOfMemory &&
+                    std::string(e.what()).find("Self Contact") != std::string::npos;
+        }
+        const bool unchanged = solver.positions() == fan.vertices;
+        std::exit(refused && unchanged ? 0 : 1);
       },
       ::testing::ExitedWithCode(0), "");
 }

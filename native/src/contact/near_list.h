@@ -2,12 +2,18 @@
 // into kBuckets equal slices of [0, reach) (a counting sort: linear, stable).
 // A move that can bring pairs at most `within` nearer than they were listed
 // scans only the slices below `within`; the caller still tests each pair's
-// own distance. Nothing is allocated once the vectors have grown.
+// own distance. Nothing is allocated once the vectors have grown, and they
+// grow only after checking that the room fits in memory: on a mesh whose
+// triangles are far smaller than its mean edge, the pairs within reach can
+// outnumber what the machine holds (docs/contact.md, Limits).
 #pragma once
 
 #include <algorithm>
 #include <cstdint>
+#include <string>
 #include <vector>
+
+#include "runtime/memory_headroom.h"
 
 namespace arap::contact {
 
@@ -24,7 +30,11 @@ class NearList {
     reach_ = reach;
     found_.clear();
   }
-  void add(double distance, std::uint64_t key) { found_.push_back({distance, key}); }
+  // Throws arap::Error(OutOfMemory) when the list would not fit in memory.
+  void add(double distance, std::uint64_t key) {
+    if (found_.size() == found_.capacity()) grow();
+    found_.push_back({distance, key});
+  }
   // Groups what add() found by distance; pairs() is then in slice order.
   void finish() {
     std::fill(begin_, begin_ + kBuckets + 1, 0);
@@ -43,6 +53,14 @@ class NearList {
   }
 
  private:
+  // Doubles the room of found_, and of pairs_ that finish() fills from it, if both fit.
+  void grow() {
+    const size_t more = std::max<size_t>(4096, found_.capacity());
+    require_headroom(2.0 * static_cast<double>(more * sizeof(NearPair)),
+                     "Self Contact's list of near surface pairs (the mesh has triangles far smaller than its mean "
+                     "edge; turn Self Contact off or remesh it more evenly)");
+    found_.reserve(found_.capacity() + more);
+  }
   int bucket(double distance) const {
     const double slice = distance / reach_ * kBuckets;
     return slice >= kBuckets - 1 ? kBuckets - 1 : (slice > 0 ? static_cast<int>(slice) : 0);

@@ -495,6 +495,7 @@ bool SelfContact::listed(const double* P0, const double* P1) {
 // The watched pairs closer than activation + margin at `at`; the margin grows
 // for a move between `at` and `other` longer than half of it (one cut into the most pieces).
 void SelfContact::make_list(const double* at, const double* other) {
+  list_made_ = false;  // until it is done: the walk can throw (more pairs than the memory left holds)
   double longest = 0;
   for (int v : surface_vertices_) longest = std::max(longest, (row(other, v) - row(at, v)).squaredNorm());
   list_margin_ = std::max(margin_, 2.001 * std::sqrt(longest));
