@@ -179,4 +179,30 @@ TEST(MemoryLimit, SelfContactRefusesAListThatDoesNotFit) {
       ::testing::ExitedWithCode(0), "");
 }
 
+// The pairs near at rest, which Self Contact's bind sets aside, grow only
+// while they fit too: the sliver fan's need about 100 MB.
+TEST(MemoryLimit, SelfContactRefusesABindWhoseRestPairsDoNotFit) {
+  if (arap_test::kSanitizerBuild) GTEST_SKIP() << "the address space is not limited under a sanitizer";
+  EXPECT_EXIT(
+      {
+        const arap::procedural::TriMesh fan = sliver_fan(6000);
+        std::vector<int> rim;
+        for (int i = 0; i < 6000; i += 2) rim.push_back(1 + 6000 + i);
+        arap::Options o;
+        o.contact = arap::Contact::Self;
+        limit_address_space(size_t(48) << 20);
+        arap::Solver solver;
+        bool refused = false;
+        try {
+          solver.bind(fan.vertices, fan.triangles, rim, o);
+        } catch (const arap::Error& e) {
+          std::fprintf(stderr, "%s\n", e.what());
+          refused = e.code() == arap::ErrorCode::OutOfMemory &&
+                    std::string(e.what()).find("Self Contact") != std::string::npos;
+        }
+        std::exit(refused && !solver.is_bound() ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "");
+}
+
 }  // namespace

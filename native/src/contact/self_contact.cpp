@@ -8,6 +8,7 @@
 
 #include "contact/ccd.h"
 #include "contact/primitives.h"
+#include "runtime/memory_headroom.h"
 #include "portable_math.h"
 
 namespace arap::contact {
@@ -148,15 +149,26 @@ void SelfContact::bind(const Points& rest, const Triangles& triangles, double st
   refit(P, P, 0.5 * activation_);
   const double activation2 = activation_ * activation_;
   double w[4];
+  // A mesh with triangles far smaller than its mean edge can have more such pairs than memory holds.
+  auto keep = [](std::vector<std::uint64_t>& pairs, std::uint64_t k) {
+    if (pairs.size() == pairs.capacity()) {
+      const size_t more = std::max<size_t>(4096, pairs.capacity());
+      require_headroom(static_cast<double>((pairs.capacity() + more) * sizeof(std::uint64_t)),  // the new block
+                       "Self Contact's pairs of surface primitives near at rest (the mesh has triangles far smaller "
+                       "than its mean edge; turn Self Contact off or remesh it more evenly)");
+      pairs.reserve(pairs.capacity() + more);
+    }
+    pairs.push_back(k);
+  };
   auto point_triangle = [&](int v, int f) {
     const double d2 = point_triangle_distance2(row(P, v), row(P, triangles_(f, 0)), row(P, triangles_(f, 1)),
                                                row(P, triangles_(f, 2)), w);
-    if (d2 < activation2) excluded_vt_.push_back(key(v, f));
+    if (d2 < activation2) keep(excluded_vt_, key(v, f));
   };
   auto edge_edge = [&](int a, int b) {
     const double d2 = edge_edge_distance2(row(P, edges_[2 * a]), row(P, edges_[2 * a + 1]), row(P, edges_[2 * b]),
                                           row(P, edges_[2 * b + 1]), w);
-    if (d2 < activation2) excluded_ee_.push_back(sorted_key(a, b));
+    if (d2 < activation2) keep(excluded_ee_, sorted_key(a, b));
   };
   for_each_triangle_pair([&](int f, int g) {
     for_each_primitive_pair(f, g, point_triangle, edge_edge);
