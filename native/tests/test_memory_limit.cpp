@@ -37,6 +37,18 @@ void limit_address_space(size_t headroom) {
   if (setrlimit(RLIMIT_AS, &limit) != 0) std::exit(3);
 }
 
+// Whether `call` throws arap::Error(OutOfMemory) with `named` in its message (printed for the log).
+template <class Call>
+bool refused_for_memory(const Call& call, const std::string& named) {
+  try {
+    call();
+  } catch (const arap::Error& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return e.code() == arap::ErrorCode::OutOfMemory && std::string(e.what()).find(named) != std::string::npos;
+  }
+  return false;
+}
+
 arap::Solver bound_to(const arap::procedural::TriMesh& mesh) {
   const arap::procedural::Bend bend = arap::procedural::bend(mesh.vertices);
   arap::Solver solver;
@@ -80,8 +92,8 @@ TEST(MemoryLimit, ABindTooLargeIsRefusedAndThePreviousBindingKept) {
         }
         // The small binding still solves, to finite positions.
         const arap::SolveStats stats = solver.solve(small_bend.targets);
-        const bool kept = solver.vertex_count() == small.vertices.rows() && solver.positions().allFinite() &&
-                          stats.iterations > 0;
+        const bool kept =
+            solver.vertex_count() == small.vertices.rows() && solver.positions().allFinite() && stats.iterations > 0;
         std::exit(refused && kept ? 0 : 1);
       },
       ::testing::ExitedWithCode(0), "");
@@ -97,14 +109,9 @@ TEST(MemoryLimit, TheFactorizationIsCheckedFromItsColumnCounts) {
         const arap::procedural::Bend bend = arap::procedural::bend(large.vertices);
         limit_address_space(size_t(170) << 20);
         arap::Solver solver;
-        bool refused = false;
-        try {
-          solver.bind(large.vertices, large.triangles, bend.constrained, arap::Options{});
-        } catch (const arap::Error& e) {
-          std::fprintf(stderr, "%s\n", e.what());
-          refused = e.code() == arap::ErrorCode::OutOfMemory &&
-                    std::string(e.what()).find("(the factorization)") != std::string::npos;
-        }
+        const bool refused =
+            refused_for_memory([&] { solver.bind(large.vertices, large.triangles, bend.constrained, arap::Options{}); },
+                               "(the factorization)");
         std::exit(refused && !solver.is_bound() ? 0 : 1);
       },
       ::testing::ExitedWithCode(0), "");
@@ -165,14 +172,7 @@ TEST(MemoryLimit, SelfContactRefusesAListThatDoesNotFit) {
         arap::Solver solver;
         solver.bind(fan.vertices, fan.triangles, rim, o);
         limit_address_space(size_t(64) << 20);
-        bool refused = false;
-        try {
-          solver.solve(targets);
-        } catch (const arap::Error& e) {
-          std::fprintf(stderr, "%s\n", e.what());
-          refused = e.code() == arap::ErrorCode::OutOfMemory &&
-                    std::string(e.what()).find("Self Contact") != std::string::npos;
-        }
+        const bool refused = refused_for_memory([&] { solver.solve(targets); }, "Self Contact");
         const bool unchanged = solver.positions() == fan.vertices;
         std::exit(refused && unchanged ? 0 : 1);
       },
@@ -192,14 +192,8 @@ TEST(MemoryLimit, SelfContactRefusesABindWhoseRestPairsDoNotFit) {
         o.contact = arap::Contact::Self;
         limit_address_space(size_t(48) << 20);
         arap::Solver solver;
-        bool refused = false;
-        try {
-          solver.bind(fan.vertices, fan.triangles, rim, o);
-        } catch (const arap::Error& e) {
-          std::fprintf(stderr, "%s\n", e.what());
-          refused = e.code() == arap::ErrorCode::OutOfMemory &&
-                    std::string(e.what()).find("Self Contact") != std::string::npos;
-        }
+        const bool refused =
+            refused_for_memory([&] { solver.bind(fan.vertices, fan.triangles, rim, o); }, "Self Contact");
         std::exit(refused && !solver.is_bound() ? 0 : 1);
       },
       ::testing::ExitedWithCode(0), "");
