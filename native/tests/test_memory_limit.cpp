@@ -132,13 +132,21 @@ TEST(MemoryLimit, WithRoomEnoughTheBindGoesAhead) {
 // A fan of n slivers around one vertex, ringed by a band of n quads out to
 // twice its radius: the mean edge is about 0.6 of the radius, the slivers
 // 1/n of a turn wide, so each rim vertex has thousands of triangles within
-// Self Contact's reach (docs/contact.md, Limits).
-arap::procedural::TriMesh sliver_fan(int n) {
-  arap::procedural::TriMesh m;
+// Self Contact's reach (docs/contact.md, Limits). Every other rim vertex is
+// held; Options has Self Contact on.
+struct SliverFan {
+  arap::procedural::TriMesh mesh;
+  std::vector<int> rim;
+  arap::Options options;
+};
+
+SliverFan sliver_fan(int n) {
+  SliverFan fan;
+  arap::procedural::TriMesh& m = fan.mesh;
   m.vertices.resize(1 + 2 * n, 3);
   m.vertices.row(0) << 0, 0, 0;
   for (int i = 0; i < n; ++i) {
-    const double a = 2 * 3.14159265358979 * i / n;
+    const double a = 2 * EIGEN_PI * i / n;
     m.vertices.row(1 + i) << std::cos(a), std::sin(a), 0;
     m.vertices.row(1 + n + i) << 2 * std::cos(a), 2 * std::sin(a), 0;
   }
@@ -149,31 +157,28 @@ arap::procedural::TriMesh sliver_fan(int n) {
     m.triangles.row(n + 2 * i) << 1 + i, 1 + n + i, 1 + j;
     m.triangles.row(n + 2 * i + 1) << 1 + j, 1 + n + i, 1 + n + j;
   }
-  return m;
+  for (int i = 0; i < n; i += 2) fan.rim.push_back(1 + n + i);
+  fan.options.contact = arap::Contact::Self;
+  return fan;
 }
 
 // Self Contact's list of near pairs grows only while it fits: on the sliver
 // fan it would need hundreds of MB; with 64 MB left the solve is refused with
-// the typed error, the positions are what they were, and a solve with
-// contact off then works.
+// the typed error and the positions are what they were.
 TEST(MemoryLimit, SelfContactRefusesAListThatDoesNotFit) {
   if (arap_test::kSanitizerBuild) GTEST_SKIP() << "the address space is not limited under a sanitizer";
   EXPECT_EXIT(
       {
-        const arap::procedural::TriMesh fan = sliver_fan(3000);
-        std::vector<int> rim;
-        for (int i = 0; i < 3000; i += 2) rim.push_back(1 + 3000 + i);
-        arap::Points targets(static_cast<Eigen::Index>(rim.size()), 3);
-        for (size_t k = 0; k < rim.size(); ++k)
-          targets.row(static_cast<Eigen::Index>(k)) = fan.vertices.row(rim[k]) + Eigen::RowVector3d(0, 0, 0.3);
-        arap::Options o;
-        o.contact = arap::Contact::Self;
-        o.max_iterations = 5;
+        SliverFan fan = sliver_fan(3000);
+        arap::Points targets(static_cast<Eigen::Index>(fan.rim.size()), 3);
+        for (size_t k = 0; k < fan.rim.size(); ++k)
+          targets.row(static_cast<Eigen::Index>(k)) = fan.mesh.vertices.row(fan.rim[k]) + Eigen::RowVector3d(0, 0, 0.3);
+        fan.options.max_iterations = 5;
         arap::Solver solver;
-        solver.bind(fan.vertices, fan.triangles, rim, o);
+        solver.bind(fan.mesh.vertices, fan.mesh.triangles, fan.rim, fan.options);
         limit_address_space(size_t(64) << 20);
         const bool refused = refused_for_memory([&] { solver.solve(targets); }, "Self Contact");
-        const bool unchanged = solver.positions() == fan.vertices;
+        const bool unchanged = solver.positions() == fan.mesh.vertices;
         std::exit(refused && unchanged ? 0 : 1);
       },
       ::testing::ExitedWithCode(0), "");
@@ -185,15 +190,11 @@ TEST(MemoryLimit, SelfContactRefusesABindWhoseRestPairsDoNotFit) {
   if (arap_test::kSanitizerBuild) GTEST_SKIP() << "the address space is not limited under a sanitizer";
   EXPECT_EXIT(
       {
-        const arap::procedural::TriMesh fan = sliver_fan(6000);
-        std::vector<int> rim;
-        for (int i = 0; i < 6000; i += 2) rim.push_back(1 + 6000 + i);
-        arap::Options o;
-        o.contact = arap::Contact::Self;
+        const SliverFan fan = sliver_fan(6000);
         limit_address_space(size_t(48) << 20);
         arap::Solver solver;
-        const bool refused =
-            refused_for_memory([&] { solver.bind(fan.vertices, fan.triangles, rim, o); }, "Self Contact");
+        const bool refused = refused_for_memory(
+            [&] { solver.bind(fan.mesh.vertices, fan.mesh.triangles, fan.rim, fan.options); }, "Self Contact");
         std::exit(refused && !solver.is_bound() ? 0 : 1);
       },
       ::testing::ExitedWithCode(0), "");

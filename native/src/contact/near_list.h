@@ -10,7 +10,6 @@
 
 #include <algorithm>
 #include <cstdint>
-#include <string>
 #include <vector>
 
 #include "runtime/memory_headroom.h"
@@ -32,7 +31,10 @@ class NearList {
   }
   // Throws arap::Error(OutOfMemory) when the list would not fit in memory.
   void add(double distance, std::uint64_t key) {
-    if (found_.size() == found_.capacity()) grow();
+    if (found_.size() == found_.capacity())  // found_'s new block, and pairs_ that finish() fills from it
+      grow_within_headroom(found_, 2,
+                           "Self Contact's list of near surface pairs (the mesh has triangles far "
+                           "smaller than its mean edge; turn Self Contact off or remesh it more evenly)");
     found_.push_back({distance, key});
   }
   // Groups what add() found by distance; pairs() is then in slice order.
@@ -53,14 +55,6 @@ class NearList {
   }
 
  private:
-  // Doubles the room of found_, and of pairs_ that finish() fills from it, if both fit.
-  void grow() {
-    const size_t more = std::max<size_t>(4096, found_.capacity());
-    require_headroom(2.0 * static_cast<double>(more * sizeof(NearPair)),
-                     "Self Contact's list of near surface pairs (the mesh has triangles far smaller than its mean "
-                     "edge; turn Self Contact off or remesh it more evenly)");
-    found_.reserve(found_.capacity() + more);
-  }
   int bucket(double distance) const {
     const double slice = distance / reach_ * kBuckets;
     return slice >= kBuckets - 1 ? kBuckets - 1 : (slice > 0 ? static_cast<int>(slice) : 0);

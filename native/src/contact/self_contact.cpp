@@ -149,15 +149,12 @@ void SelfContact::bind(const Points& rest, const Triangles& triangles, double st
   refit(P, P, 0.5 * activation_);
   const double activation2 = activation_ * activation_;
   double w[4];
-  // A mesh with triangles far smaller than its mean edge can have more such pairs than memory holds.
+  // A mesh with triangles far smaller than its mean edge, or crossing itself
+  // everywhere, can have more such pairs than memory holds.
   auto keep = [](std::vector<std::uint64_t>& pairs, std::uint64_t k) {
-    if (pairs.size() == pairs.capacity()) {
-      const size_t more = std::max<size_t>(4096, pairs.capacity());
-      require_headroom(static_cast<double>((pairs.capacity() + more) * sizeof(std::uint64_t)),  // the new block
-                       "Self Contact's pairs of surface primitives near at rest (the mesh has triangles far smaller "
-                       "than its mean edge; turn Self Contact off or remesh it more evenly)");
-      pairs.reserve(pairs.capacity() + more);
-    }
+    if (pairs.size() == pairs.capacity())
+      grow_within_headroom(pairs, 1, "Self Contact's pairs of surface primitives near at rest (the mesh has "
+                                     "triangles far smaller than its mean edge; turn Self Contact off or remesh it)");
     pairs.push_back(k);
   };
   auto point_triangle = [&](int v, int f) {
@@ -172,7 +169,7 @@ void SelfContact::bind(const Points& rest, const Triangles& triangles, double st
   };
   for_each_triangle_pair([&](int f, int g) {
     for_each_primitive_pair(f, g, point_triangle, edge_edge);
-    if (triangles_cross(P, f, g)) rest_crossing_.push_back(sorted_key(f, g));
+    if (triangles_cross(P, f, g)) keep(rest_crossing_, sorted_key(f, g));
   });
   std::sort(excluded_vt_.begin(), excluded_vt_.end());
   std::sort(excluded_ee_.begin(), excluded_ee_.end());

@@ -13,14 +13,16 @@
 // Where none can be read (not Linux), nothing is known and nothing is refused.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <string>
+#include <vector>
 
 namespace arap {
 
 struct MemoryHeadroom {
   std::size_t bytes = static_cast<std::size_t>(-1);  // the least of the limits; -1: none known
-  std::string limit;  // which limit that is, in words ("" when none is known)
+  std::string limit;                                 // which limit that is, in words ("" when none is known)
 };
 
 MemoryHeadroom memory_headroom();
@@ -31,5 +33,16 @@ std::string format_bytes(double bytes);
 // Throws arap::Error(OutOfMemory) naming `what`, both figures and the limit
 // when `bytes` more would not fit in memory_headroom().
 void require_headroom(double bytes, const std::string& what);
+
+// Room for more elements in `v` (its capacity doubled, by at least 4096),
+// after require_headroom() for the new block times `copies` (1, or more when
+// buffers of the same size will follow it): for lists whose length only the
+// input decides, so that a hostile input is refused instead of killed.
+template <class T>
+void grow_within_headroom(std::vector<T>& v, double copies, const std::string& what) {
+  const std::size_t capacity = v.capacity() + std::max<std::size_t>(4096, v.capacity());
+  require_headroom(copies * static_cast<double>(capacity * sizeof(T)), what);
+  v.reserve(capacity);
+}
 
 }  // namespace arap
