@@ -46,6 +46,7 @@ nlohmann::json make_report(const RunInfo& run, const Solver& solver, const Solve
   r["contact_ms"] = stats.contact_ms;
   r["contact_pairs"] = stats.contact_pairs;
   r["contact_steps_cut"] = stats.contact_steps_cut;
+  r["contact_checks_stopped"] = stats.contact_checks_stopped;
   r["contact_lists"] = stats.contact_lists;
   r["contact_rounds"] = stats.contact_rounds;
   r["contact_free_iterations"] = stats.contact_free_iterations;

@@ -236,6 +236,8 @@ PYBIND11_MODULE(_arap_native, m) {
       .def_readonly("contact_pairs", &arap::SolveStats::contact_pairs,
                     "contact self: pairs within the barrier's reach at the end")
       .def_readonly("contact_steps_cut", &arap::SolveStats::contact_steps_cut)
+      .def_readonly("contact_checks_stopped", &arap::SolveStats::contact_checks_stopped,
+                    "contact self: trial steps cut to the share checked within the time budget (warm starts)")
       .def_readonly("contact_lists", &arap::SolveStats::contact_lists)
       .def_readonly("contact_rounds", &arap::SolveStats::contact_rounds)
       .def_readonly("contact_free_iterations", &arap::SolveStats::contact_free_iterations)

@@ -8,9 +8,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <random>
 #include <set>
+#include <tuple>
 #include <utility>
 
 #include "arap/errors.h"
@@ -393,6 +395,44 @@ TEST(ContactSolver, SolvesInShortChunksNeverShowACrossing) {
   }
 }
 
+// A drag in a viewport with a frame budget: a trial step whose collision check
+// runs past the budget is cut to the share already checked, so no update waits
+// for the whole of a long check; no update shows a crossing, and held still the
+// pose settles at the targets.
+TEST(ContactSolver, ADragWithAFrameBudgetCutsLongChecksAndStillSettles) {
+  const Scene s = bent_bar(kFold, 600);
+  Options o = with_contact(Contact::Self);
+  o.init = arap::InitialGuess::WarmStart;
+  o.time_budget_ms = 0.5;
+  Solver solver;
+  solver.bind(s.rest, s.triangles, s.constrained, o);
+  Points at_rest = s.targets;
+  for (Eigen::Index k = 0; k < at_rest.rows(); ++k) at_rest.row(k) = s.rest.row(s.constrained[k]);
+  for (bool done = false; !done;) done = solver.solve(at_rest).converged;  // the rest pose, solved first
+  long stopped = 0;
+  const int drag = 8;
+  for (int update = 1; update <= drag; ++update) {
+    Points targets = s.targets;
+    for (Eigen::Index k = s.fixed_count; k < targets.rows(); ++k)
+      targets.row(k) = s.rest.row(s.constrained[k]) +
+                       (static_cast<double>(update) / drag) * (s.targets.row(k) - s.rest.row(s.constrained[k]));
+    const SolveStats stats = solver.solve(targets);
+    stopped += stats.contact_checks_stopped;
+    ASSERT_EQ(crossing_pairs(solver.positions(), s.triangles).size(), 0u) << "update " << update;
+  }
+  EXPECT_GT(stopped, 0) << "no check ran past the budget: the test checks nothing";
+  SolveStats stats;
+  int held = 0;
+  for (; held < 20000 && !stats.converged; ++held) {
+    stats = solver.solve(s.targets);
+    stopped += stats.contact_checks_stopped;
+    ASSERT_EQ(crossing_pairs(solver.positions(), s.triangles).size(), 0u) << "held " << held;
+  }
+  ASSERT_TRUE(stats.converged) << "not settled after " << held << " updates held still";
+  EXPECT_EQ(stats.contact_reached, 1.0);
+  EXPECT_LE(largest_constraint_error(s, solver.positions()), 1e-9 * 5.0);
+}
+
 TEST(ContactSolver, OneAndTwoThreadsGiveTheSameBits) {
   const Scene s = bent_bar(kFold, 400);
   Options one = with_contact(Contact::Self), two = one;
@@ -595,6 +635,72 @@ TEST(ContactPairList, AListMadeAtTheEndOfAPieceCoversTheNextOne) {
   EXPECT_EQ(kept.lists_made(), lists) << "the short step after the move made a list again";
   EXPECT_EQ(a.fraction, b.fraction);
   EXPECT_NEAR(a.energy, b.energy, 1e-12 * (1 + std::abs(b.energy)));
+}
+
+// A line search tries shorter steps along the move it checked: a move from
+// the same start to a point within the share found safe is not checked again
+// (only its end is evaluated, as a fresh check evaluates it), one past that
+// share or off the line is.
+TEST(ContactPairList, AShorterStepAlongACheckedMoveIsNotCheckedAgain) {
+  const Scene s = bent_bar(kFold, 600, kKeepSize);
+  const Points rest = s.rest / 5.0;
+  const double edge = mean_edge_length(rest, s.triangles);
+  // The top folded sideways and down into the side, in one straight move that a pair stops.
+  Points folded = rest;
+  for (Eigen::Index v = 0; v < rest.rows(); ++v) {
+    const double h = rest(v, 2);
+    folded.row(v) += 1.2 * h * h * Eigen::RowVector3d(0.5, 0.0, -0.6);
+  }
+  arap::contact::SelfContact kept;
+  kept.bind(rest, s.triangles, 1.0);
+  const auto move = kept.evaluate(rest.data(), folded.data());
+  ASSERT_LT(move.fraction, 1.0) << "the move is not stopped: the test checks nothing";
+  ASSERT_GT(move.fraction, 0.1);
+  const long after_move = kept.lists_made();
+  ASSERT_GE(after_move, 2) << "the move needed a single list: a check again would cost nothing";
+  auto along = [&](double share) {
+    Points P = rest;
+    for (Eigen::Index i = 0; i < P.size(); ++i) P.data()[i] += share * (folded.data()[i] - rest.data()[i]);
+    return P;
+  };
+  auto fresh_check = [&](const Points& to) {
+    arap::contact::SelfContact fresh;
+    fresh.bind(rest, s.triangles, 1.0);
+    const auto step = fresh.evaluate(rest.data(), to.data());
+    return std::make_tuple(step, fresh.active_pairs(), fresh.lists_made());
+  };
+  for (double share : {0.9 * move.fraction, 0.5 * move.fraction}) {
+    const Points shorter = along(share);
+    const long before = kept.lists_made();
+    const auto a = kept.evaluate(rest.data(), shorter.data());
+    const auto [b, b_pairs, b_lists] = fresh_check(shorter);
+    EXPECT_EQ(a.fraction, 1.0) << share;
+    EXPECT_EQ(b.fraction, 1.0) << share;
+    EXPECT_NEAR(a.energy, b.energy, 1e-12 * (1 + std::abs(b.energy))) << share;
+    EXPECT_EQ(kept.active_pairs(), b_pairs) << share;
+    EXPECT_LE(kept.lists_made() - before, 1) << share << ": the move was checked again";
+    EXPECT_GE(b_lists, 2) << share;
+  }
+  // A check told it is out of time after its first piece stops there: that share is safe, as a fresh check finds.
+  const std::function<bool()> out_of_time = [] { return true; };
+  const auto stopped = kept.evaluate(rest.data(), folded.data(), arap::contact::SelfContact::ListAt::End, &out_of_time);
+  EXPECT_TRUE(stopped.out_of_time);
+  EXPECT_GT(stopped.fraction, 0.0);
+  EXPECT_LT(stopped.fraction, move.fraction);
+  EXPECT_EQ(std::get<0>(fresh_check(along(stopped.fraction))).fraction, 1.0);
+  // Past the safe share, and off the line by a thousandth of an edge: checked in full, stopped as a fresh check stops them.
+  Points past = along(std::min(1.0, 1.05 * move.fraction));
+  Points off = along(0.9 * move.fraction);
+  off.row(s.triangles(0, 0)) += Eigen::RowVector3d(1e-3 * edge, 0, 0);
+  for (const Points* to : {&past, &off}) {
+    kept.evaluate(rest.data(), folded.data());  // the move checked last again
+    const long before = kept.lists_made();
+    const auto a = kept.evaluate(rest.data(), to->data());
+    const auto [b, b_pairs, b_lists] = fresh_check(*to);
+    EXPECT_EQ(a.fraction, b.fraction);
+    EXPECT_NEAR(a.energy, b.energy, 1e-12 * (1 + std::abs(b.energy)));
+    EXPECT_GE(kept.lists_made() - before, 2) << "not checked in full";
+  }
 }
 
 }  // namespace

@@ -27,6 +27,7 @@ struct SolveStats {
   long contact_pairs = 0;             // Contact::Self: pairs within the barrier's reach at the end
   long contact_lists = 0;             // Contact::Self: times the list of near pairs was made (a search of the mesh)
   long contact_steps_cut = 0;         // Contact::Self: trial points refused because a pair would come too close
+  long contact_checks_stopped = 0;    // Contact::Self: trial points cut to the share checked within the time budget
   int contact_rounds = 0;             // Contact::Self: rounds that moved the handles part of the way (0: none needed)
   // Contact::Self: a cold solve first runs without the barrier, for this many of `iterations` (energy[0,
   // this) are theirs). Its pose is kept when it crosses nothing and no pair is within the barrier's reach;

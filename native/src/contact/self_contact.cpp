@@ -135,6 +135,8 @@ void SelfContact::bind(const Points& rest, const Triangles& triangles, double st
   listed_at_.assign(3 * rest.rows(), 0.0);
   moved_.assign(rest.rows(), 0.0);
   piece_end_.assign(3 * rest.rows(), 0.0);
+  checked_start_.assign(3 * rest.rows(), 0.0);
+  checked_end_.assign(3 * rest.rows(), 0.0);
   activation_ = kActivationShare * length;
   stiffness_ = stiffness;
   vertex_box_.resize(rest.rows());
@@ -346,13 +348,21 @@ void SelfContact::for_each_primitive_pair(int f, int g, OnVt&& on_vt, OnEe&& on_
   }
 }
 
-SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1, ListAt list_at) {
+SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1, ListAt list_at,
+                                        const std::function<bool()>* out_of_time) {
   Step step;
   active_.clear();
   if (!active()) return step;
   if (P0 == P1) {
     sweep(P0, P1, false, list_at, step);
     return step;
+  }
+  if (on_checked_move(P0, P1)) {
+    // A shorter trial along the move checked last: only its end is evaluated.
+    sweep(P1, P1, false, list_at, step);
+    if (step.fraction >= 1) return step;
+    step = Step();  // a pair within the gap at the end (rounding): checked in full below
+    active_.clear();
   }
   // A long move is checked in pieces no vertex moves more than half the margin
   // in: the list of near pairs made at a piece's start then holds for all of it
@@ -364,6 +374,7 @@ SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1, List
   const int pieces = !(longest > reach) ? 1 : static_cast<int>(std::min<double>(kMostPieces, std::ceil(longest / reach)));
   if (pieces == 1) {
     sweep(P0, P1, true, list_at, step);
+    remember_checked_move(P0, P1, step.fraction);
     return step;
   }
   auto along = [&](int k, std::vector<double>& into) -> const double* {
@@ -381,11 +392,56 @@ SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1, List
     if (piece.fraction < 1) {
       step.fraction = (k + piece.fraction) / pieces;
       std::copy(piece.blocking, piece.blocking + 4, step.blocking);
+      remember_checked_move(P0, P1, step.fraction);
       return step;
     }
     step.energy = piece.energy;  // the last piece's: the barrier at P1
+    if (out_of_time && k + 1 < pieces && (*out_of_time)()) {
+      step = Step();
+      step.fraction = static_cast<double>(k + 1) / pieces;
+      step.out_of_time = true;
+      active_.clear();
+      remember_checked_move(P0, P1, step.fraction);
+      return step;
+    }
   }
+  remember_checked_move(P0, P1, 1);
   return step;
+}
+
+// A line search tries shorter steps along the same straight move. The move
+// checked last went from S to E, and up to the share found safe every watched
+// pair stayed farther apart than the gap. A move from S to a point within
+// `tolerance` of S + s (E - S), s within that share, is at every moment within
+// `tolerance` of that checked part, so its pairs stay farther apart than the gap
+// less 2 sqrt(3) tolerance: it crosses nothing, and only its end needs evaluating.
+bool SelfContact::on_checked_move(const double* P0, const double* P1) const {
+  if (!(checked_share_ > 0)) return false;
+  double along = 0, length2 = 0;
+  for (int v : surface_vertices_)
+    for (int c = 0; c < 3; ++c) {
+      const int i = 3 * v + c;
+      if (P0[i] != checked_start_[i]) return false;
+      const double checked = checked_end_[i] - checked_start_[i];
+      along += (P1[i] - P0[i]) * checked;
+      length2 += checked * checked;
+    }
+  if (!(length2 > 0)) return false;
+  const double s = along / length2;
+  if (!(s >= 0 && s <= checked_share_)) return false;
+  const double tolerance = 1e-9 * gap_;
+  for (int v : surface_vertices_)
+    for (int c = 0; c < 3; ++c) {
+      const int i = 3 * v + c;
+      if (!(std::abs(P1[i] - P0[i] - s * (checked_end_[i] - checked_start_[i])) <= tolerance)) return false;
+    }
+  return true;
+}
+
+void SelfContact::remember_checked_move(const double* P0, const double* P1, double share) {
+  for (int v : surface_vertices_)
+    for (int c = 0; c < 3; ++c) checked_start_[3 * v + c] = P0[3 * v + c], checked_end_[3 * v + c] = P1[3 * v + c];
+  checked_share_ = share;
 }
 
 // One straight move from P0 to P1 checked in one pass (`moving`; else P0 == P1

@@ -13,6 +13,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "arap/types.h"
@@ -46,13 +47,18 @@ class SelfContact {
     double fraction = 1;
     double energy = 0;
     int blocking[4] = {-1, -1, -1, -1};
+    // The check of a long move stopped between two of its pieces because
+    // `out_of_time` said so: `fraction` is the share checked, no pair stopped it.
+    bool out_of_time = false;
   };
   // A list of near pairs the move needs is made where the next move will likely
   // start: at the end of each piece of the move (ListAt::End), or at its start
   // for a move expected to be cut (ListAt::Start: the end lies past a contact,
   // and a list made there holds pairs that do not matter).
   enum class ListAt { End, Start };
-  Step evaluate(const double* P0, const double* P1, ListAt list_at = ListAt::End);
+  // `out_of_time`, when given, is asked between the pieces of a long move (never before the first).
+  Step evaluate(const double* P0, const double* P1, ListAt list_at = ListAt::End,
+                const std::function<bool()>* out_of_time = nullptr);
   // The barrier energy at P (no motion).
   double energy(const double* P) { return evaluate(P, P).energy; }
   // g += 1/2 dE_contact/dp on the free rows (`free_row`: vertex -> row or -1,
@@ -94,6 +100,8 @@ class SelfContact {
   bool excluded(const std::vector<std::uint64_t>& sorted, std::uint64_t key) const;
   void sweep(const double* P0, const double* P1, bool moving, ListAt list_at, Step& step);
   bool listed(const double* P0, const double* P1);
+  bool on_checked_move(const double* P0, const double* P1) const;
+  void remember_checked_move(const double* P0, const double* P1, double share);
   void make_list(const double* at, const double* other);
   bool triangles_cross(const double* P, int f, int g) const;
   double barrier(double d) const;
@@ -129,6 +137,9 @@ class SelfContact {
   bool list_made_ = false;
   long lists_made_ = 0;
   std::vector<double> piece_start_, piece_end_;  // 3 per vertex: the ends of one piece of a long step
+  // The last move checked and the share of it found safe (on_checked_move()).
+  std::vector<double> checked_start_, checked_end_;  // 3 per vertex
+  double checked_share_ = 0;
 };
 
 }  // namespace arap::contact
