@@ -187,7 +187,8 @@ class ARAP_PG_settings(PropertyGroup):
     threads: option_int(
         "threads",
         name="Threads",
-        description="CPU threads for the solver; more than 1 only helps on large meshes (100k+ vertices) "
+        description="CPU threads for the solver; more than 1 only helps on large meshes (100k+ vertices), "
+                    "and with Self Contact from a few thousand vertices, "
                     "when the computer is otherwise idle",
     )
     output: EnumProperty(

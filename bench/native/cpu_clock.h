@@ -22,4 +22,11 @@ inline double process_cpu_ms() {
   return ms(u.ru_utime) + ms(u.ru_stime);
 }
 
+// Wall time: what a caller waits for work spread over threads (on a busy machine it counts waits too).
+inline double wall_ms() {
+  timespec t{};
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
+}
+
 }  // namespace bench

@@ -849,6 +849,7 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
       s.contact_stalled_rounds = 0;
     }
     if (s.contact.active()) {
+      s.contact.set_threads(s.options.threads);
       // Steps start from a clear state: the last solution, or the rest shape for a cold start
       // (which must not depend on what came before) and after set_positions() left a crossing.
       const bool warm = guess == InitialGuess::WarmStart;

@@ -637,6 +637,39 @@ TEST(ContactPairList, AListMadeAtTheEndOfAPieceCoversTheNextOne) {
   EXPECT_NEAR(a.energy, b.energy, 1e-12 * (1 + std::abs(b.energy)));
 }
 
+// The search of near pairs runs on the solver's threads on larger meshes; the
+// list it finds, and so every result, is the same bit for bit on one or two.
+TEST(ContactPairList, OneAndTwoThreadsFindTheSameList) {
+  const Scene s = bent_bar(kFold, 1400, kKeepSize);
+  ASSERT_GE(s.triangles.rows(), 2000) << "below the size at which the search runs on threads";
+  const Points rest = s.rest / 5.0;
+  std::mt19937 random(5);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const double edge = mean_edge_length(rest, s.triangles);
+  arap::contact::SelfContact one, two;
+  one.bind(rest, s.triangles, 1.0);
+  two.bind(rest, s.triangles, 1.0);
+  two.set_threads(2);
+  Points from = rest;
+  const int moves = arap_test::kSanitizerBuild ? 3 : 6;
+  for (int k = 1; k <= moves; ++k) {
+    Points to = rest;
+    for (Eigen::Index v = 0; v < rest.rows(); ++v) {
+      const double h = rest(v, 2);
+      to.row(v) += (1.2 * k / moves) * h * h * Eigen::RowVector3d(0.5, 0.0, -0.6) +
+                   0.05 * edge * Eigen::RowVector3d(noise(random), noise(random), noise(random));
+    }
+    const auto a = one.evaluate(from.data(), to.data());
+    const auto b = two.evaluate(from.data(), to.data());
+    ASSERT_EQ(a.fraction, b.fraction) << k;
+    ASSERT_EQ(a.energy, b.energy) << k;
+    ASSERT_EQ(one.active_pairs(), two.active_pairs()) << k;
+    ASSERT_EQ(one.lists_made(), two.lists_made()) << k;
+    if (a.fraction >= 1) from = to;
+  }
+  EXPECT_GT(one.active_pairs() + one.lists_made(), 1) << "nothing was listed: the test compares nothing";
+}
+
 // A line search tries shorter steps along the move it checked: a move from
 // the same start to a point within the share found safe is not checked again
 // (only its end is evaluated, as a fresh check evaluates it), one past that

@@ -21,6 +21,16 @@ struct NearPair {
   std::uint64_t key;
 };
 
+// Appends a pair to `into`, growing it only after checking that the room fits in memory.
+// Throws arap::Error(OutOfMemory) when the list would not fit.
+inline void keep_near_pair(std::vector<NearPair>& into, double distance, std::uint64_t key) {
+  if (into.size() == into.capacity())  // its new block, and the lists that a NearList fills from it
+    grow_within_headroom(into, 2,
+                         "Self Contact's list of near surface pairs (the mesh has triangles far "
+                         "smaller than its mean edge; turn Self Contact off or remesh it more evenly)");
+  into.push_back({distance, key});
+}
+
 class NearList {
  public:
   static constexpr int kBuckets = 64;
@@ -30,13 +40,7 @@ class NearList {
     found_.clear();
   }
   // Throws arap::Error(OutOfMemory) when the list would not fit in memory.
-  void add(double distance, std::uint64_t key) {
-    if (found_.size() == found_.capacity())  // found_'s new block, and pairs_ that finish() fills from it
-      grow_within_headroom(found_, 2,
-                           "Self Contact's list of near surface pairs (the mesh has triangles far "
-                           "smaller than its mean edge; turn Self Contact off or remesh it more evenly)");
-    found_.push_back({distance, key});
-  }
+  void add(double distance, std::uint64_t key) { keep_near_pair(found_, distance, key); }
   // Groups what add() found by distance; pairs() is then in slice order.
   void finish() {
     std::fill(begin_, begin_ + kBuckets + 1, 0);

@@ -1,7 +1,9 @@
 #include "contact/self_contact.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <limits>
 #include <numeric>
 #include <utility>
@@ -9,6 +11,7 @@
 #include "contact/ccd.h"
 #include "contact/primitives.h"
 #include "runtime/memory_headroom.h"
+#include "runtime/worker_threads.h"
 #include "portable_math.h"
 
 namespace arap::contact {
@@ -29,6 +32,12 @@ constexpr int kMostPieces = 256;
 // at most about kMostClusters (their pairs are checked on every move).
 constexpr int kClusterTriangles = 16;
 constexpr int kMostClusters = 512;
+// The search of near pairs runs in at least kWalkParts parts, on the solver's
+// threads from kParallelTriangles surface triangles (below, a list takes well
+// under a millisecond: waking the helpers would cost a share of it).
+constexpr int kWalkParts = 64;
+constexpr int kParallelTriangles = 2000;
+constexpr int kMostThreads = 64;  // Options::threads' limit (options.cpp)
 
 std::uint64_t key(int a, int b) { return (static_cast<std::uint64_t>(a) << 32) | static_cast<std::uint32_t>(b); }
 std::uint64_t sorted_key(int a, int b) { return a < b ? key(a, b) : key(b, a); }
@@ -278,15 +287,20 @@ void SelfContact::refit(const double* P0, const double* P1, double pad) {
 
 template <class Visit>
 void SelfContact::for_each_triangle_pair(Visit&& visit) {
+  walk_from(0, 0, stack_, visit);
+}
+
+template <class Visit>
+void SelfContact::walk_from(int a0, int b0, std::vector<std::pair<int, int>>& stack, Visit&& visit) const {
   // i, j: places in leaf order (their boxes side by side in leaf_box_).
   auto test = [&](int i, int j) {
     if (overlap(leaf_box_[i], leaf_box_[j])) visit(leaf_triangles_[i], leaf_triangles_[j]);
   };
-  stack_.clear();
-  stack_.emplace_back(0, 0);
-  while (!stack_.empty()) {
-    const auto [a, b] = stack_.back();
-    stack_.pop_back();
+  stack.clear();
+  stack.emplace_back(a0, b0);
+  while (!stack.empty()) {
+    const auto [a, b] = stack.back();
+    stack.pop_back();
     const Node& na = nodes_[a];
     const Node& nb = nodes_[b];
     if (a == b) {
@@ -294,9 +308,9 @@ void SelfContact::for_each_triangle_pair(Visit&& visit) {
         for (int i = 0; i < na.count; ++i)
           for (int j = i + 1; j < na.count; ++j) test(na.first + i, na.first + j);
       } else {
-        stack_.emplace_back(na.left, na.left);
-        stack_.emplace_back(na.right, na.right);
-        stack_.emplace_back(na.left, na.right);
+        stack.emplace_back(na.left, na.left);
+        stack.emplace_back(na.right, na.right);
+        stack.emplace_back(na.left, na.right);
       }
       continue;
     }
@@ -305,12 +319,47 @@ void SelfContact::for_each_triangle_pair(Visit&& visit) {
       for (int i = 0; i < na.count; ++i)
         for (int j = 0; j < nb.count; ++j) test(na.first + i, nb.first + j);
     } else if (na.left < 0 || (nb.left >= 0 && extent(nb.box) > extent(na.box))) {  // the larger one down
-      stack_.emplace_back(a, nb.left);
-      stack_.emplace_back(a, nb.right);
+      stack.emplace_back(a, nb.left);
+      stack.emplace_back(a, nb.right);
     } else {
-      stack_.emplace_back(na.left, b);
-      stack_.emplace_back(na.right, b);
+      stack.emplace_back(na.left, b);
+      stack.emplace_back(na.right, b);
     }
+  }
+}
+
+// Level by level, each node pair replaced by the pairs walk_from() would push
+// for it (a pair whose boxes do not overlap is dropped, a pair of leaves kept).
+void SelfContact::split_walk(int at_least) {
+  walk_parts_.assign(1, {0, 0});
+  for (bool split = true; split && static_cast<int>(walk_parts_.size()) < at_least;) {
+    split = false;
+    walk_next_.clear();
+    for (const auto& [a, b] : walk_parts_) {
+      const Node& na = nodes_[a];
+      const Node& nb = nodes_[b];
+      if (a == b) {
+        if (na.left < 0) {
+          walk_next_.emplace_back(a, b);
+          continue;
+        }
+        walk_next_.emplace_back(na.left, na.left);
+        walk_next_.emplace_back(na.right, na.right);
+        walk_next_.emplace_back(na.left, na.right);
+      } else if (!overlap(na.box, nb.box)) {
+      } else if (na.left < 0 && nb.left < 0) {
+        walk_next_.emplace_back(a, b);
+        continue;
+      } else if (na.left < 0 || (nb.left >= 0 && extent(nb.box) > extent(na.box))) {
+        walk_next_.emplace_back(a, nb.left);
+        walk_next_.emplace_back(a, nb.right);
+      } else {
+        walk_next_.emplace_back(na.left, b);
+        walk_next_.emplace_back(na.right, b);
+      }
+      split = true;
+    }
+    walk_parts_.swap(walk_next_);
   }
 }
 
@@ -557,6 +606,65 @@ bool SelfContact::listed(const double* P0, const double* P1) {
   return near || relative_.holds(listed_at_.data(), P0, P1);
 }
 
+// The watched pairs closer than `reach` at `at`, into near_vt_ and near_ee_ (not yet grouped).
+// The walk runs in parts that the threads take in turn; what each part finds is
+// joined in the parts' order, so the list is the same for any thread count.
+void SelfContact::find_near_pairs(const double* at, double reach) {
+  const double reach2 = reach * reach;
+  split_walk(kWalkParts);
+  const int parts = static_cast<int>(walk_parts_.size());
+  part_range_.resize(parts);
+  const int threads = triangles_.rows() >= kParallelTriangles ? std::min({threads_, parts, kMostThreads}) : 1;
+  if (static_cast<int>(thread_found_.size()) < threads) thread_found_.resize(threads);
+  std::atomic<int> next{0};
+  std::atomic<bool> failed{false};
+  std::exception_ptr error[kMostThreads];
+  run_on_threads(threads, [&](int t) {
+    try {
+      double w[4];
+      Found& found = thread_found_[t];
+      found.vt.clear();
+      found.ee.clear();
+      for (int part = next++; part < parts && !failed; part = next++) {
+        PartRange& range = part_range_[part];
+        range.thread = t;
+        range.vt_begin = found.vt.size(), range.ee_begin = found.ee.size();
+        auto point_triangle = [&](int v, int f) {
+          const Vec3 p = row(at, v), a = row(at, triangles_(f, 0)), b = row(at, triangles_(f, 1)),
+                     c = row(at, triangles_(f, 2));
+          if (point_triangle_separation(p, a, b, c) >= reach) return;
+          const double d2 = point_triangle_distance2(p, a, b, c, w);
+          const std::uint64_t k = key(v, f);
+          if (d2 < reach2 && !excluded(excluded_vt_, k)) keep_near_pair(found.vt, std::sqrt(d2), k);
+        };
+        auto edge_edge = [&](int e, int g) {
+          const Vec3 a0 = row(at, edges_[2 * e]), a1 = row(at, edges_[2 * e + 1]);
+          const Vec3 b0 = row(at, edges_[2 * g]), b1 = row(at, edges_[2 * g + 1]);
+          if (edge_edge_separation(a0, a1, b0, b1) >= reach) return;
+          const double d2 = edge_edge_distance2(a0, a1, b0, b1, w);
+          const std::uint64_t k = sorted_key(e, g);
+          if (d2 < reach2 && !excluded(excluded_ee_, k)) keep_near_pair(found.ee, std::sqrt(d2), k);
+        };
+        walk_from(walk_parts_[part].first, walk_parts_[part].second, found.stack,
+                  [&](int f, int g) { for_each_primitive_pair(f, g, point_triangle, edge_edge); });
+        range.vt_end = found.vt.size(), range.ee_end = found.ee.size();
+      }
+    } catch (...) {  // more pairs than the memory left holds: thrown below, on the calling thread
+      error[t] = std::current_exception();
+      failed = true;
+    }
+  });
+  for (int t = 0; t < threads; ++t)
+    if (error[t]) std::rethrow_exception(error[t]);
+  near_vt_.start(reach);
+  near_ee_.start(reach);
+  for (const PartRange& range : part_range_) {
+    const Found& found = thread_found_[range.thread];
+    for (size_t i = range.vt_begin; i < range.vt_end; ++i) near_vt_.add(found.vt[i].distance, found.vt[i].key);
+    for (size_t i = range.ee_begin; i < range.ee_end; ++i) near_ee_.add(found.ee[i].distance, found.ee[i].key);
+  }
+}
+
 // The watched pairs closer than activation + margin at `at`; the margin grows
 // for a move between `at` and `other` longer than half of it (one cut into the most pieces).
 void SelfContact::make_list(const double* at, const double* other) {
@@ -566,26 +674,7 @@ void SelfContact::make_list(const double* at, const double* other) {
   list_margin_ = std::max(margin_, 2.001 * std::sqrt(longest));
   relative_.set_reference(at, triangles_.data(), static_cast<long>(triangles_.rows()), list_margin_, activation_);
   refit(at, at, 0.5 * (activation_ + list_margin_));
-  const double reach = activation_ + list_margin_, reach2 = reach * reach;
-  near_vt_.start(reach);
-  near_ee_.start(reach);
-  double w[4];
-  auto point_triangle = [&](int v, int f) {
-    const Vec3 p = row(at, v), a = row(at, triangles_(f, 0)), b = row(at, triangles_(f, 1)), c = row(at, triangles_(f, 2));
-    if (point_triangle_separation(p, a, b, c) >= reach) return;
-    const double d2 = point_triangle_distance2(p, a, b, c, w);
-    const std::uint64_t k = key(v, f);
-    if (d2 < reach2 && !excluded(excluded_vt_, k)) near_vt_.add(std::sqrt(d2), k);
-  };
-  auto edge_edge = [&](int e, int g) {
-    const Vec3 a0 = row(at, edges_[2 * e]), a1 = row(at, edges_[2 * e + 1]);
-    const Vec3 b0 = row(at, edges_[2 * g]), b1 = row(at, edges_[2 * g + 1]);
-    if (edge_edge_separation(a0, a1, b0, b1) >= reach) return;
-    const double d2 = edge_edge_distance2(a0, a1, b0, b1, w);
-    const std::uint64_t k = sorted_key(e, g);
-    if (d2 < reach2 && !excluded(excluded_ee_, k)) near_ee_.add(std::sqrt(d2), k);
-  };
-  for_each_triangle_pair([&](int f, int g) { for_each_primitive_pair(f, g, point_triangle, edge_edge); });
+  find_near_pairs(at, activation_ + list_margin_);
   // Grouped by distance: a move checks only the pairs that its largest motion can bring within reach.
   near_vt_.finish();
   near_ee_.finish();

@@ -32,6 +32,8 @@ class SelfContact {
   // 3 (internal order and units); `stiffness`: kappa.
   void bind(const Points& rest, const Triangles& triangles, double stiffness);
   bool active() const { return triangles_.rows() > 0; }
+  // Threads for the search of near pairs (Options::threads): the list found is the same for any count.
+  void set_threads(int threads) { threads_ = threads < 1 ? 1 : threads; }
   double gap() const { return gap_; }
   double activation() const { return activation_; }
   long lists_made() const { return lists_made_; }
@@ -93,6 +95,12 @@ class SelfContact {
   // visit(f, g) for each pair of triangles whose boxes overlap.
   template <class Visit>
   void for_each_triangle_pair(Visit&& visit);
+  // The same for the pairs below tree nodes a and b (a == b: within one subtree), on `stack`.
+  template <class Visit>
+  void walk_from(int a, int b, std::vector<std::pair<int, int>>& stack, Visit&& visit) const;
+  // The walk from the root cut into at least `at_least` parts (node pairs, in an order
+  // that only the tree and its boxes decide), into walk_parts_.
+  void split_walk(int at_least);
   // The point-triangle (on_vt(v, f)) and edge-edge (on_ee(e, g)) pairs that triangles f and g
   // hold, their boxes overlapping; each pair comes from one triangle pair only.
   template <class OnVt, class OnEe>
@@ -103,6 +111,7 @@ class SelfContact {
   bool on_checked_move(const double* P0, const double* P1) const;
   void remember_checked_move(const double* P0, const double* P1, double share);
   void make_list(const double* at, const double* other);
+  void find_near_pairs(const double* at, double reach);
   bool triangles_cross(const double* P, int f, int g) const;
   double barrier(double d) const;
   double barrier_slope(double d) const;
@@ -126,6 +135,20 @@ class SelfContact {
   std::vector<Box> edge_box_;
   std::vector<Box> leaf_box_;    // triangle_box_ in the order of leaf_triangles_
   std::vector<std::pair<int, int>> stack_;
+  // make_list()'s parts of the walk; per thread, what it found and a stack; per part, which
+  // thread took it and where its pairs lie in that thread's (joined in the parts' order).
+  std::vector<std::pair<int, int>> walk_parts_, walk_next_;
+  struct Found {
+    std::vector<NearPair> vt, ee;
+    std::vector<std::pair<int, int>> stack;
+  };
+  std::vector<Found> thread_found_;
+  struct PartRange {
+    int thread;
+    size_t vt_begin, vt_end, ee_begin, ee_end;
+  };
+  std::vector<PartRange> part_range_;
+  int threads_ = 1;
   std::vector<ActivePair> active_;
   NearList near_vt_, near_ee_;  // the watched pairs within activation + margin
   std::vector<double> listed_at_;                 // 3 per vertex: where the list was made
