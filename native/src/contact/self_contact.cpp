@@ -686,17 +686,38 @@ void SelfContact::make_list(const double* at, const double* other) {
 }
 
 
+// One walk with the boxes padded by half the activation distance (no list of
+// near pairs: the state is checked once, not moved from), for both the pairs
+// within the gap and the triangles that cross.
 bool SelfContact::is_clear(const double* P, double* barrier) {
   if (barrier) *barrier = 0;
   if (!active()) return true;
-  const Step at = evaluate(P, P);
-  if (at.fraction < 1) return false;
-  if (barrier) *barrier = at.energy;
   refit(P, P, 0.5 * activation_);
+  const double activation2 = activation_ * activation_;
   bool clear = true;
+  double energy = 0, w[4];
+  auto near = [&](double d2) {
+    if (!(d2 < activation2)) return;
+    const double d = std::sqrt(d2);
+    if (!(d > gap_)) clear = false;
+    else energy += stiffness_ * this->barrier(d);
+  };
+  auto point_triangle = [&](int v, int f) {
+    if (!clear || excluded(excluded_vt_, key(v, f))) return;
+    near(point_triangle_distance2(row(P, v), row(P, triangles_(f, 0)), row(P, triangles_(f, 1)),
+                                  row(P, triangles_(f, 2)), w));
+  };
+  auto edge_edge = [&](int a, int b) {
+    if (!clear || excluded(excluded_ee_, sorted_key(a, b))) return;
+    near(edge_edge_distance2(row(P, edges_[2 * a]), row(P, edges_[2 * a + 1]), row(P, edges_[2 * b]),
+                             row(P, edges_[2 * b + 1]), w));
+  };
   for_each_triangle_pair([&](int f, int g) {
-    if (clear && triangles_cross(P, f, g) && !excluded(rest_crossing_, sorted_key(f, g))) clear = false;
+    if (!clear) return;
+    for_each_primitive_pair(f, g, point_triangle, edge_edge);
+    if (triangles_cross(P, f, g) && !excluded(rest_crossing_, sorted_key(f, g))) clear = false;
   });
+  if (clear && barrier) *barrier = energy;
   return clear;
 }
 
