@@ -23,12 +23,11 @@ struct NearPair {
 
 // Appends a pair to `into`, growing it only after checking that the room fits in memory.
 // Throws arap::Error(OutOfMemory) when the list would not fit.
+// Twice the block: the lists that a NearList fills from it follow.
 inline void keep_near_pair(std::vector<NearPair>& into, double distance, std::uint64_t key) {
-  if (into.size() == into.capacity())  // its new block, and the lists that a NearList fills from it
-    grow_within_headroom(into, 2,
-                         "Self Contact's list of near surface pairs (the mesh has triangles far "
-                         "smaller than its mean edge; turn Self Contact off or remesh it more evenly)");
-  into.push_back({distance, key});
+  push_within_headroom(into, NearPair{distance, key}, 2,
+                       "Self Contact's list of near surface pairs (the mesh has triangles far "
+                       "smaller than its mean edge; turn Self Contact off or remesh it more evenly)");
 }
 
 class NearList {

@@ -58,6 +58,16 @@ void sort_unique(std::vector<std::uint64_t>& keys) {
 
 }  // namespace
 
+double SelfContact::vertex_triangle_distance2(const double* P, int v, int f, double w[4]) const {
+  return point_triangle_distance2(row(P, v), row(P, triangles_(f, 0)), row(P, triangles_(f, 1)),
+                                  row(P, triangles_(f, 2)), w);
+}
+
+double SelfContact::edges_distance2(const double* P, int a, int b, double w[4]) const {
+  return edge_edge_distance2(row(P, edges_[2 * a]), row(P, edges_[2 * a + 1]), row(P, edges_[2 * b]),
+                             row(P, edges_[2 * b + 1]), w);
+}
+
 bool SelfContact::excluded(const std::vector<std::uint64_t>& sorted, std::uint64_t k) const {
   return !sorted.empty() && std::binary_search(sorted.begin(), sorted.end(), k);
 }
@@ -163,20 +173,14 @@ void SelfContact::bind(const Points& rest, const Triangles& triangles, double st
   // A mesh with triangles far smaller than its mean edge, or crossing itself
   // everywhere, can have more such pairs than memory holds.
   auto keep = [](std::vector<std::uint64_t>& pairs, std::uint64_t k) {
-    if (pairs.size() == pairs.capacity())
-      grow_within_headroom(pairs, 1, "Self Contact's pairs of surface primitives near at rest (the mesh has "
-                                     "triangles far smaller than its mean edge; turn Self Contact off or remesh it)");
-    pairs.push_back(k);
+    push_within_headroom(pairs, k, 1, "Self Contact's pairs of surface primitives near at rest (the mesh has "
+                                      "triangles far smaller than its mean edge; turn Self Contact off or remesh it)");
   };
   auto point_triangle = [&](int v, int f) {
-    const double d2 = point_triangle_distance2(row(P, v), row(P, triangles_(f, 0)), row(P, triangles_(f, 1)),
-                                               row(P, triangles_(f, 2)), w);
-    if (d2 < activation2) keep(excluded_vt_, key(v, f));
+    if (vertex_triangle_distance2(P, v, f, w) < activation2) keep(excluded_vt_, key(v, f));
   };
   auto edge_edge = [&](int a, int b) {
-    const double d2 = edge_edge_distance2(row(P, edges_[2 * a]), row(P, edges_[2 * a + 1]), row(P, edges_[2 * b]),
-                                          row(P, edges_[2 * b + 1]), w);
-    if (d2 < activation2) keep(excluded_ee_, sorted_key(a, b));
+    if (edges_distance2(P, a, b, w) < activation2) keep(excluded_ee_, sorted_key(a, b));
   };
   for_each_triangle_pair([&](int f, int g) {
     for_each_primitive_pair(f, g, point_triangle, edge_edge);
@@ -689,8 +693,8 @@ void SelfContact::make_list(const double* at, const double* other) {
 // One walk with the boxes padded by half the activation distance (no list of
 // near pairs: the state is checked once, not moved from), for both the pairs
 // within the gap and the triangles that cross.
-bool SelfContact::is_clear(const double* P, double* barrier) {
-  if (barrier) *barrier = 0;
+bool SelfContact::is_clear(const double* P, double* barrier_energy) {
+  if (barrier_energy) *barrier_energy = 0;
   if (!active()) return true;
   refit(P, P, 0.5 * activation_);
   const double activation2 = activation_ * activation_;
@@ -700,24 +704,20 @@ bool SelfContact::is_clear(const double* P, double* barrier) {
     if (!(d2 < activation2)) return;
     const double d = std::sqrt(d2);
     if (!(d > gap_)) clear = false;
-    else energy += stiffness_ * this->barrier(d);
+    else energy += stiffness_ * barrier(d);
   };
   auto point_triangle = [&](int v, int f) {
-    if (!clear || excluded(excluded_vt_, key(v, f))) return;
-    near(point_triangle_distance2(row(P, v), row(P, triangles_(f, 0)), row(P, triangles_(f, 1)),
-                                  row(P, triangles_(f, 2)), w));
+    if (clear && !excluded(excluded_vt_, key(v, f))) near(vertex_triangle_distance2(P, v, f, w));
   };
   auto edge_edge = [&](int a, int b) {
-    if (!clear || excluded(excluded_ee_, sorted_key(a, b))) return;
-    near(edge_edge_distance2(row(P, edges_[2 * a]), row(P, edges_[2 * a + 1]), row(P, edges_[2 * b]),
-                             row(P, edges_[2 * b + 1]), w));
+    if (clear && !excluded(excluded_ee_, sorted_key(a, b))) near(edges_distance2(P, a, b, w));
   };
   for_each_triangle_pair([&](int f, int g) {
     if (!clear) return;
     for_each_primitive_pair(f, g, point_triangle, edge_edge);
     if (triangles_cross(P, f, g) && !excluded(rest_crossing_, sorted_key(f, g))) clear = false;
   });
-  if (clear && barrier) *barrier = energy;
+  if (clear && barrier_energy) *barrier_energy = energy;
   return clear;
 }
 

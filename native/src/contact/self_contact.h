@@ -70,8 +70,8 @@ class SelfContact {
   void add_gradient(double* gradient) const;
   // Whether P is a state a step may start from: every watched pair farther
   // apart than the gap and no two triangles crossing that did not cross at rest.
-  // `barrier`, when given and P is clear, gets the barrier energy at P.
-  bool is_clear(const double* P, double* barrier = nullptr);
+  // `barrier_energy`, when given and P is clear, gets the barrier energy at P.
+  bool is_clear(const double* P, double* barrier_energy = nullptr);
 
  private:
   struct Box {
@@ -106,6 +106,9 @@ class SelfContact {
   template <class OnVt, class OnEe>
   void for_each_primitive_pair(int f, int g, OnVt&& on_vt, OnEe&& on_ee) const;
   bool excluded(const std::vector<std::uint64_t>& sorted, std::uint64_t key) const;
+  // The squared distance of vertex v and triangle f, of edges a and b, at positions P (weights: primitives.h).
+  double vertex_triangle_distance2(const double* P, int v, int f, double w[4]) const;
+  double edges_distance2(const double* P, int a, int b, double w[4]) const;
   void sweep(const double* P0, const double* P1, bool moving, ListAt list_at, Step& step);
   bool listed(const double* P0, const double* P1);
   bool on_checked_move(const double* P0, const double* P1) const;

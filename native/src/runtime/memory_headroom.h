@@ -45,4 +45,11 @@ void grow_within_headroom(std::vector<T>& v, double copies, const std::string& w
   v.reserve(capacity);
 }
 
+// Appends x to v, making room through grow_within_headroom() when v is full.
+template <class T>
+void push_within_headroom(std::vector<T>& v, const T& x, double copies, const char* what) {
+  if (v.size() == v.capacity()) grow_within_headroom(v, copies, what);
+  v.push_back(x);
+}
+
 }  // namespace arap
