@@ -33,17 +33,24 @@ bool same_sign_or_zero(double x, double y, double z) {
   return (x >= 0 && y >= 0 && z >= 0) || (x <= 0 && y <= 0 && z <= 0);
 }
 
-// An orientation within rounding of zero is zero: 1e-12 of the product of
+// An orientation within rounding of zero is zero: `relative` of the product of
 // the lengths it is made of (below that, the sign is the rounding's).
-double rounded(double orientation, double scale) { return std::abs(orientation) <= 1e-12 * scale ? 0.0 : orientation; }
+double rounded(double orientation, double scale, double relative = 1e-12) {
+  return std::abs(orientation) <= relative * scale ? 0.0 : orientation;
+}
+
+// A point within 1e-9 |p - a| of a triangle's plane is on it: a solver's output
+// keeps a flat face flat only to about 1e-13 of its coordinates, which for small
+// triangles far from the origin exceeds 1e-12 of their size.
+constexpr double kOnThePlane = 1e-9;
 
 // Segment pq crosses triangle abc (not in its plane). Near-coplanar pairs,
 // whose orientations are rounding noise, count as coplanar (not crossing).
 bool segment_crosses(const Eigen::Vector3d& p, const Eigen::Vector3d& q, const Eigen::Vector3d& a,
                      const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
   const double area = (b - a).cross(c - a).norm();
-  const double dp = rounded(orient(a, b, c, p), area * (p - a).norm());
-  const double dq = rounded(orient(a, b, c, q), area * (q - a).norm());
+  const double dp = rounded(orient(a, b, c, p), area * (p - a).norm(), kOnThePlane);
+  const double dq = rounded(orient(a, b, c, q), area * (q - a).norm(), kOnThePlane);
   if ((dp > 0 && dq > 0) || (dp < 0 && dq < 0) || (dp == 0 && dq == 0)) return false;
   const double pq = (q - p).norm();
   const double s1 = rounded(orient(p, q, a, b), pq * (a - p).norm() * (b - p).norm());
