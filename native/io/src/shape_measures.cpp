@@ -39,9 +39,11 @@ double rounded(double orientation, double scale, double relative = 1e-12) {
   return std::abs(orientation) <= relative * scale ? 0.0 : orientation;
 }
 
-// A point within 1e-9 |p - a| of a triangle's plane is on it: a solver's output
-// keeps a flat face flat only to about 1e-13 of its coordinates, which for small
-// triangles far from the origin exceeds 1e-12 of their size.
+// A point within 1e-9 |p - a| of a triangle's plane is on it. A solver's output
+// keeps a flat face flat to about 1e-13 of its coordinates: for small triangles
+// far from the origin, more than 1e-12 of their size, so their edges would be
+// taken as crossing each other's planes, and the edge tests' volumes, as small,
+// round to zero, which reads as a line through a corner or along an edge.
 constexpr double kOnThePlane = 1e-9;
 
 // Segment pq crosses triangle abc (not in its plane). Near-coplanar pairs,
