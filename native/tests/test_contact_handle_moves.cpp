@@ -90,3 +90,26 @@ TEST(ContactHandleMoves, AFixedGroupStaysWhileTheHandleBesideItMovesAway) {
 }
 
 }  // namespace
+
+// A part with no move to make (a fixed group) stays bit for bit where it is, whatever
+// its coordinates: its best rigid fit is the identity only to rounding. The group
+// is the fixed end of a coarse, irregular torus, beside a handle that moves.
+TEST(ContactHandleMoves, APartAlreadyAtItsTargetsStaysExactly) {
+  Points rest(10, 3);
+  rest << -1.99574, 0.029095, -0.116822, -1.55547, -0.367919, 0.980246, -1.67009, 0.417455, 0.601747,
+      -1.29795, -0.460373, 0.134728, -1.36124, -0.408793, -1.15915, -1.65803, 0.343761, -0.849705,
+      -1.25982, 0.25443, -1.46267,  // the fixed group, 0-6
+      1.97579, -0.0194596, -0.307824, 1.38284, -0.148845, 1.41336, 1.0147, -0.428859, 0.717839;  // a handle
+  Triangles triangles(6, 3);
+  triangles << 0, 1, 2, 1, 0, 3, 6, 4, 5, 4, 3, 0, 5, 4, 0, 7, 8, 9;
+  const std::vector<int> constrained{0, 1, 2, 3, 4, 5, 6, 7, 8, 9};
+  arap::contact::HandleMoves moves;
+  moves.bind(constrained, 10, triangles, 10);
+  Points targets = rest;
+  for (int k = 7; k < 10; ++k) targets.row(k) += Eigen::RowVector3d(-3.0, 0.0, 0.3);
+  Points goal(10, 3);
+  for (double share : {0.125, 0.3, 0.5, 0.9}) {
+    moves.toward(rest, targets, share, goal);
+    for (int k = 0; k < 7; ++k) EXPECT_EQ(goal.row(k), rest.row(k)) << "share " << share << ", vertex " << k;
+  }
+}

@@ -31,6 +31,13 @@ void HandleMoves::toward(const Points& state, const Points& targets, double shar
   std::vector<std::vector<int>> parts(joined.label(std::vector<char>(slots, 1), part_of));
   for (int s = 0; s < slots; ++s) parts[part_of[s]].push_back(s);
   for (const std::vector<int>& part : parts) {
+    // A part with no move to make (a fixed group) stays exactly: its fit below is the identity only to rounding.
+    bool there = true;
+    for (int s : part) there = there && state.row(constrained_[s]) == targets.row(s);
+    if (there) {
+      for (int s : part) goal.row(s) = targets.row(s);
+      continue;
+    }
     Eigen::Vector3d from = Eigen::Vector3d::Zero(), to = Eigen::Vector3d::Zero();
     for (int s : part) from += state.row(constrained_[s]).transpose(), to += targets.row(s).transpose();
     from /= static_cast<double>(part.size());
