@@ -89,8 +89,6 @@ TEST(ContactHandleMoves, AFixedGroupStaysWhileTheHandleBesideItMovesAway) {
   for (int k = 4; k < 8; ++k) EXPECT_LT((goal.row(k) - (rest.row(k) + Eigen::RowVector3d(0, 0, 5))).norm(), 1e-12) << k;
 }
 
-}  // namespace
-
 // A part with no move to make (a fixed group) stays bit for bit where it is, whatever
 // its coordinates: its best rigid fit is the identity only to rounding. The group
 // is the fixed end of a coarse, irregular torus, beside a handle that moves.
@@ -113,3 +111,5 @@ TEST(ContactHandleMoves, APartAlreadyAtItsTargetsStaysExactly) {
     for (int k = 0; k < 7; ++k) EXPECT_EQ(goal.row(k), rest.row(k)) << "share " << share << ", vertex " << k;
   }
 }
+
+}  // namespace

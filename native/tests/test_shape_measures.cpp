@@ -32,8 +32,8 @@ TEST(SelfIntersectingPairs, AShallowCrossingStillCounts) {
 
 TEST(SelfIntersectingPairs, NeighboursOnAFlatFaceFarFromTheOriginDoNotCross) {
   // Two small triangles of one flat face (x = 0), apart in it, far from the
-  // origin along z, the face flat to 1e-13 as a solver leaves it: their
-  // orientations are rounding noise, not a crossing.
+  // origin along z, the face flat only to 1e-13, as a solver leaves it (taken
+  // from a bar compressed along its axis): not a crossing.
   Points P(6, 3);
   P << 1.3e-13, 1.2e-13, 1.0533, -2.1e-13, -2.2e-13, 1.0799, -6.9e-14, 0.25, 1.0799,
       -7.9e-14, 0.25, 1.0266, -1.3e-14, 0.25, 1.0533, -3.0e-14, 0.5, 1.0533;
