@@ -19,7 +19,8 @@ import bpy
 from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from render_volume import read_off, render  # noqa: E402
+from render_volume import render  # noqa: E402
+from volume_table import read_off  # noqa: E402
 
 RUNS = (("none", "Surface only"), ("self", "Self Contact"))
 SKIN = (0.80, 0.62, 0.48, 1.0)

@@ -17,24 +17,11 @@ import sys
 import bpy
 from mathutils import Vector
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from volume_table import read_off  # noqa: E402
+
 MODES = (("none", "Surface only"), ("global", "Volume Global"), ("infill", "Volume Infill"))
 COLOURS = {"none": (0.80, 0.35, 0.30, 1.0), "global": (0.30, 0.55, 0.85, 1.0), "infill": (0.35, 0.70, 0.40, 1.0)}
-
-
-def read_off(path):
-    words = open(path).read().split()
-    if words[0] != "OFF":
-        raise SystemExit("%s: not an OFF file" % path)
-    nv, nf = int(words[1]), int(words[2])
-    at = 4
-    vertices = [tuple(float(w) for w in words[at + 3 * i: at + 3 * i + 3]) for i in range(nv)]
-    at += 3 * nv
-    faces = []
-    for _ in range(nf):
-        k = int(words[at])
-        faces.append(tuple(int(w) for w in words[at + 1: at + 1 + k]))
-        at += 1 + k
-    return vertices, faces
 
 
 def kept_volume(folder, case, mode):

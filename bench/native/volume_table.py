@@ -65,6 +65,22 @@ def read_obj(path):
     return vertices, faces
 
 
+def read_off(path):
+    words = open(path).read().split()
+    if words[0] != "OFF":
+        raise SystemExit("%s: not an OFF file" % path)
+    nv, nf = int(words[1]), int(words[2])
+    at = 4
+    vertices = [tuple(float(w) for w in words[at + 3 * i: at + 3 * i + 3]) for i in range(nv)]
+    at += 3 * nv
+    faces = []
+    for _ in range(nf):
+        k = int(words[at])
+        faces.append(tuple(int(w) for w in words[at + 1: at + 1 + k]))
+        at += 1 + k
+    return vertices, faces
+
+
 def write_obj(path, vertices, faces):
     with open(path, "w") as f:
         for v in vertices:
