@@ -40,6 +40,28 @@ TEST(SelfIntersectingPairs, NeighboursOnAFlatFaceFarFromTheOriginDoNotCross) {
   EXPECT_EQ(crossings(P), 0);
 }
 
+TEST(SelfIntersectingPairs, AVertexLinedUpWithAnEdgeBeyondTheTriangleDoesNotCross) {
+  // From a bar folded by Live: d (a corner of its handle face) lies on the line
+  // of the edge bc, past b, in abc's plane; the edges from d leave the plane
+  // there, outside abc.
+  Points P(6, 3);
+  P << 0.56946643989257173, -0.10058138844730674, -0.22118772678389678,  // a
+      0.59999999999999998, -0.033333399999999999, -0.099999999999999978,  // b
+      0.59999999999999998, -0.10000000000000001, -0.099999999999999978,   // c
+      0.55952356215383503, -0.033671604475135689, -0.21518796241947985,
+      0.55952356232121891, 0.033671607137614315, -0.21518796218846031,
+      0.59999999999999998, 0.033333399999999999, -0.099999999999999978;  // d
+  EXPECT_EQ(crossings(P), 0);
+}
+
+TEST(SelfIntersectingPairs, AVertexOnAnEdgeTouches) {
+  // The same, d on the edge itself: the triangles meet there.
+  Points P(6, 3);
+  P << 0, 0, 0, 1, 0, 0, 0, 1, 0,
+      0.5, 0, 0, 0.7, 0.3, 1, 1.0, -0.5, 0.5;
+  EXPECT_EQ(crossings(P), 1);
+}
+
 TEST(SelfIntersectingPairs, TrianglesApartDoNotCross) {
   Points P(6, 3);
   P << 0, 0, 0, 1, 0, 0, 0, 1, 0,

@@ -46,6 +46,17 @@ double rounded(double orientation, double scale, double relative = 1e-12) {
 // round to zero, which reads as a line through a corner or along an edge.
 constexpr double kOnThePlane = 1e-9;
 
+// Whether x, in the plane of triangle abc, lies on it: its barycentric
+// coordinates (signed areas over the triangle's) no lower than -1e-9.
+bool on_closed_triangle(const Eigen::Vector3d& x, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                        const Eigen::Vector3d& c) {
+  const Eigen::Vector3d n = (b - a).cross(c - a);
+  const double whole = n.squaredNorm();
+  if (!(whole > 0)) return false;
+  const double u = n.dot((b - x).cross(c - x)) / whole, v = n.dot((c - x).cross(a - x)) / whole;
+  return u >= -1e-9 && v >= -1e-9 && 1 - u - v >= -1e-9;
+}
+
 // Segment pq crosses triangle abc (not in its plane). Near-coplanar pairs,
 // whose orientations are rounding noise, count as coplanar (not crossing).
 bool segment_crosses(const Eigen::Vector3d& p, const Eigen::Vector3d& q, const Eigen::Vector3d& a,
@@ -59,7 +70,12 @@ bool segment_crosses(const Eigen::Vector3d& p, const Eigen::Vector3d& q, const E
   const double s2 = rounded(orient(p, q, b, c), pq * (b - p).norm() * (c - p).norm());
   const double s3 = rounded(orient(p, q, c, a), pq * (c - p).norm() * (a - p).norm());
   if (s1 == 0 && s2 == 0 && s3 == 0) return false;
-  return same_sign_or_zero(s1, s2, s3);
+  if (!same_sign_or_zero(s1, s2, s3)) return false;
+  if (s1 != 0 && s2 != 0 && s3 != 0) return true;
+  // The line passes within rounding of an edge's line or a corner: on the triangle,
+  // or on that line beyond it (a vertex lined up with an edge), is told by where
+  // the segment meets the plane.
+  return on_closed_triangle(p + (dp / (dp - dq)) * (q - p), a, b, c);
 }
 
 // Two non-coplanar triangles meet iff an edge of one crosses the other.
