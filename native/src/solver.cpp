@@ -528,9 +528,16 @@ struct Solver::Impl {
       const contact::SelfContact::Step step =
           contact.evaluate(contact_from.data(), contact_goal.data(), contact::SelfContact::ListAt::Start);
       stats.contact_ms += ms_since(t);
-      const double made = step.fraction >= 1 ? share : kContactBackoff * step.fraction * share;
-      if (step.fraction < 1)
+      double made = step.fraction >= 1 ? share : kContactBackoff * step.fraction * share;
+      if (step.fraction < 1) {
         state = contact_from + kContactBackoff * step.fraction * (contact_goal - contact_from);
+        // A pair pressed within rounding of the gap (a share of 1e-14) can measure
+        // inside it after even that move: the round then stays where it started.
+        if (!std::isfinite(contact.energy(state.data()))) {
+          state = contact_from;
+          made = 0;
+        }
+      }
       remaining *= 1 - made;
       if (step.fraction >= 1 && share >= 1) {
         apply_targets(targets, state);
