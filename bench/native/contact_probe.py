@@ -49,10 +49,10 @@ def write_off(path, positions, faces):
         f.writelines("%d %s\n" % (len(t), " ".join(str(v) for v in t)) for t in faces)
 
 
-def live_drag(native, build, mesh, faces, fixed, handle, translation, volume, at_rest, scratch):
+def live_drag(native, build, mesh, vertices, faces, fixed, handle, translation, volume, at_rest, scratch):
     """Live's warm solves along the drag: (share of the move the handle got, pairs crossing that did not at rest)."""
     import numpy as np
-    rest = np.array(read_off(mesh)[0])
+    rest = np.array(vertices)
     constrained = np.array(fixed + handle, np.int64)
     move = np.array(translation)
     solver = native.Solver()
@@ -127,7 +127,7 @@ def main():
                         "warning": " ".join(line for line in done.stderr.splitlines() if "warning" in line)}
                 live = "–"
                 if native:
-                    got, new = live_drag(native, args.build, mesh, faces, fixed, handle, translation, volume,
+                    got, new = live_drag(native, args.build, mesh, vertices, faces, fixed, handle, translation, volume,
                                          at_rest, os.path.join(args.out, "live.off"))
                     case["live"] = {"handle_got": got, "new_crossings": new}
                     live = "%.2f, %d new" % (got, len(new))
