@@ -66,7 +66,7 @@ def live_drag(native, build, mesh, vertices, faces, fixed, handle, translation, 
         done = update >= 29 and stats.converged
         if update % 5 == 4 or done:
             write_off(scratch, solver.positions(), faces)
-            new |= intersecting_pairs(build, mesh, scratch)[1] - at_rest
+            new |= intersecting_pairs(build, mesh, scratch) - at_rest
         if done:
             break
     got = (solver.positions()[handle] - rest[handle]).mean(axis=0)
@@ -74,8 +74,9 @@ def live_drag(native, build, mesh, vertices, faces, fixed, handle, translation, 
 
 
 def intersecting_pairs(build, rest, posed):
+    """The triangle pairs (f, g), f < g, that cross in `posed`, by arap-mesh-measure."""
     measured = json.loads(run([os.path.join(build, "arap-mesh-measure"), rest, posed, "--list-intersections"]))
-    return measured, {tuple(p) for p in measured["intersecting_pairs"]}
+    return {tuple(p) for p in measured["intersecting_pairs"]}
 
 
 def main():
@@ -102,7 +103,7 @@ def main():
             path = os.path.join(args.out, "%s.%s.txt" % (name, kind))
             write_indices(path, indices)
             inputs += ["--" + kind, path]
-        _, at_rest = intersecting_pairs(args.build, mesh, mesh)
+        at_rest = intersecting_pairs(args.build, mesh, mesh)
         for move, translation in translations.items():
             for volume in args.volume:
                 case = {"mesh": name, "move": move, "volume": volume, "rest": len(at_rest)}
@@ -118,7 +119,7 @@ def main():
                         raise SystemExit("%s %s %s %s: %s" % (name, move, volume, contact, done.stderr.strip()))
                     with open(report) as f:
                         stats = json.load(f)
-                    _, pairs = intersecting_pairs(args.build, mesh, out)
+                    pairs = intersecting_pairs(args.build, mesh, out)
                     posed, _ = read_off(out)
                     case[contact] = {
                         "crossings": len(pairs), "new_crossings": sorted(pairs - at_rest),

@@ -55,7 +55,8 @@ TEST(SelfIntersectingPairs, AVertexLinedUpWithAnEdgeBeyondTheTriangleDoesNotCros
 }
 
 TEST(SelfIntersectingPairs, AVertexOnAnEdgeTouches) {
-  // The same, d on the edge itself: the triangles meet there.
+  // d in abc's plane on the edge ab itself, the edges from d leaving the plane
+  // there: the triangles touch, which counts as crossing.
   Points P(6, 3);
   P << 0, 0, 0, 1, 0, 0, 0, 1, 0,
       0.5, 0, 0, 0.7, 0.3, 1, 1.0, -0.5, 0.5;
