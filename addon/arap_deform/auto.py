@@ -32,6 +32,7 @@ any later solve, turns it off the same way but keeps the last pose written.
 """
 
 import time
+import traceback
 
 import bmesh
 import bpy
@@ -60,6 +61,8 @@ class AutoPoser:
     """One object's bound solver, its cache of solved poses and what was written."""
 
     def __init__(self, obj, scene, on_worker=False):
+        self.obj = obj   # Blender invalidates it when the object is deleted (alive())
+        self.setup_key = setup_key(obj)
         self.problem = problem.Problem(obj, scene)
         # In the viewport the bind runs on a thread of its own (a file just opened, an undo, Auto
         # turned on): the mesh shows what it showed until the first pose is ready.
@@ -91,6 +94,14 @@ class AutoPoser:
         self.worker = None           # the SolveWorker of the viewport's solves while one runs
         self.targets = None          # the pending pose's targets (the worker's)
         self.final = False           # the worker solves them from the cold start (else: a preview)
+
+    def alive(self):
+        """False once the object this poser was made for is deleted (a new object can land at its address)."""
+        try:
+            self.obj.name
+        except ReferenceError:
+            return False
+        return True
 
     def update(self, obj, depsgraph, on_worker=False):
         """Bring the mesh to the current pose. Returns True when it is settled
@@ -264,6 +275,18 @@ class AutoPoser:
         self.written = key
 
 
+def setup_key(obj):
+    """What a bind reads from the object's set-up besides the mesh: the groups by name and whether each is
+    there (with its index), the handles' Empties, the weights and the result. A change binds again, so a
+    set-up Deform would refuse (a removed or renamed group) stops Auto mode with Deform's message."""
+    s = obj.arap
+    names = [s.fixed_group, s.stiff_group] + [h.group for h in s.handles]
+    groups = obj.vertex_groups
+    present = tuple(groups[n].index if n in groups else -1 for n in names)
+    empties = tuple(h.empty.as_pointer() if h.empty is not None else 0 for h in s.handles)
+    return (tuple(names), present, empties, s.stiffness, s.weights, s.output)
+
+
 def status(obj):
     """Auto mode's state for `obj` as the panel says it ('' before its first pose)."""
     poser = _posers.get(obj.as_pointer())
@@ -303,6 +326,10 @@ def _settings_objects(scene):
 def _poser(obj, scene, on_worker=False):
     uid = obj.as_pointer()
     poser = _posers.get(uid)
+    if poser is not None and (not poser.alive() or poser.setup_key != setup_key(obj)):
+        # Another object at a deleted one's address, or a new set-up: bind again (gather() checks it).
+        _drop(uid)
+        poser = None
     if poser is not None and poser.fingerprint != problem.topology_counts(obj.data):
         raise SetupError("'%s' changed its vertices or faces: Auto posing stopped" % obj.name)
     if poser is None:
@@ -375,9 +402,10 @@ def stop(obj, reason=None, keep_pose=False):
     """Turn Auto off for `obj`: rest shape back (or, with `keep_pose`, the mesh as last written: a dependency
     loop stops Auto at its last good pose), state dropped, reason kept."""
     global _busy
-    poser = _posers.pop(obj.as_pointer(), None)
-    if poser is not None:
-        poser.stop_worker()
+    poser = _posers.get(obj.as_pointer())
+    if poser is not None and not poser.alive():
+        poser = None   # another object's, at the address of a deleted one
+    _drop(obj.as_pointer())
     was_busy, _busy = _busy, True
     try:
         s = obj.arap
@@ -385,6 +413,8 @@ def stop(obj, reason=None, keep_pose=False):
             s["auto"] = False   # the raw value: do not run the property's update again
         if keep_pose:
             pass   # the pose stays; turning Auto on and off again removes what it created
+        elif _posed_by_another(obj) is not None or sessions.session_on_shared_mesh(obj) is not None:
+            pass   # a linked duplicate's Auto or Live poses this mesh: its pose and rest shape are that one's
         elif obj.mode == 'EDIT':
             _restore_in_edit_mode(obj, poser)
         else:
@@ -396,12 +426,67 @@ def stop(obj, reason=None, keep_pose=False):
         print("ARAP Auto:", reason)
 
 
+def _drop(uid):
+    poser = _posers.pop(uid, None)
+    if poser is not None:
+        poser.stop_worker()
+
+
 def forget(obj=None):
-    """Drop bound solvers and caches (all, or one object's): they are rebuilt lazily."""
-    if obj is None:
-        _posers.clear()
-    else:
-        _posers.pop(obj.as_pointer(), None)
+    """Drop bound solvers and caches (all, or one object's; their workers stopped): they are rebuilt
+    lazily."""
+    for uid in list(_posers) if obj is None else [obj.as_pointer()]:
+        _drop(uid)
+
+
+def _drop_deleted():
+    """Stop and drop the state of objects deleted since the last update."""
+    for uid, poser in list(_posers.items()):
+        if not poser.alive():
+            _drop(uid)
+
+
+def _posed_by_another(obj):
+    """The other object whose Auto mode poses `obj`'s mesh (linked duplicates share one), or None."""
+    mesh = obj.data
+    if mesh.users < 2:
+        return None
+    for poser in _posers.values():
+        if poser.alive() and poser.obj != obj and poser.obj.data == mesh:
+            return poser.obj
+    return None
+
+
+def _one_poser_per_mesh(objects):
+    """Linked duplicates share a mesh, so only one of them can pose it: the one already posing it, else the
+    first by name. Auto is turned off on the others with a message; the mesh is left to that one."""
+    by_mesh = {}
+    for obj in objects:
+        by_mesh.setdefault(obj.data.as_pointer(), []).append(obj)
+    kept = []
+    for group in by_mesh.values():
+        owner = _posed_by_another(group[0]) if len(group) == 1 else None
+        if owner is None:
+            posing = [ob for ob in group if ob.as_pointer() in _posers and _posers[ob.as_pointer()].alive()]
+            owner = (posing or sorted(group, key=lambda ob: ob.name))[0]
+        for ob in group:
+            if ob == owner:
+                kept.append(ob)
+            else:
+                stop(ob, "'%s' shares its mesh '%s' with '%s', which Auto mode poses: Auto posing stopped on "
+                         "'%s' (make the mesh single-user to pose it on its own: Object > Relations > Make "
+                         "Single User)" % (ob.name, ob.data.name, owner.name, ob.name), keep_pose=True)
+    return kept
+
+
+def _stop_reason(obj, exc):
+    """What Auto mode's status says when an error stopped it on `obj`."""
+    message = errors.user_error(exc)
+    if message is None:
+        traceback.print_exception(type(exc), exc, exc.__traceback__)
+        return ("Auto posing stopped on '%s' by an internal error (%s: %s); please report it"
+                % (obj.name, type(exc).__name__, exc))
+    return message if "Auto posing stopped" in message else "%s: Auto posing stopped" % message
 
 
 def _interactive():
@@ -421,7 +506,8 @@ def update_scene(scene, depsgraph=None):
     settled = True
     _busy = True
     try:
-        for obj in _settings_objects(scene):
+        _drop_deleted()
+        for obj in _one_poser_per_mesh(_settings_objects(scene)):
             if sessions.session_for(obj) is not None:
                 continue  # Live owns the object while it runs
             try:
@@ -433,7 +519,7 @@ def update_scene(scene, depsgraph=None):
                 stop(obj, "%s. Auto posing stopped on '%s' (the mesh stays as it is)" % (exc, obj.name),
                      keep_pose=True)
             except Exception as exc:  # noqa: BLE001 - a handler must never raise; the reason is kept
-                stop(obj, errors.user_error(exc) or "Auto posing stopped: %s" % exc)
+                stop(obj, _stop_reason(obj, exc))
     finally:
         _busy = False
     if not settled:
@@ -498,15 +584,27 @@ _HANDLERS = (("depsgraph_update_post", _on_depsgraph_update), ("frame_change_pos
 
 
 def register():
+    global _timer_on
+    _timer_on = False
     for name, fn in _HANDLERS:
         getattr(bpy.app.handlers, name).append(fn)
     status_overlay.add(auto_status_lines)
+    if not bpy.app.background:
+        # Enabled again (or for the first time) with Auto objects in the open file: pose them now.
+        bpy.app.timers.register(_pose_opened_file, first_interval=0.0)
 
 
 def unregister():
+    """Disabled: no handler, no timer and no worker of ours is left running (the meshes keep their last pose;
+    Auto goes on when the add-on is enabled again)."""
+    global _timer_on
     status_overlay.remove(auto_status_lines)
     for name, fn in _HANDLERS:
         handlers = getattr(bpy.app.handlers, name)
         if fn in handlers:
             handlers.remove(fn)
+    for fn in (_continue, _pose_opened_file):
+        if bpy.app.timers.is_registered(fn):
+            bpy.app.timers.unregister(fn)
+    _timer_on = False
     forget()

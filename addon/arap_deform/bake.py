@@ -139,6 +139,8 @@ class Baker:
         if sessions.session_for(obj) is not None:
             raise SetupError("ARAP Live is running on '%s': apply or cancel it before baking" % obj.name)
         self.obj = obj
+        self.name = obj.name    # a deleted object's own name can no longer be read
+        self.counts = problem.topology_counts(obj.data)
         self.scene = scene or bpy.context.scene
         self.frames = list(range(int(start), int(end) + 1))
         self.frame_before = (self.scene.frame_current, self.scene.frame_subframe)
@@ -219,7 +221,19 @@ class Baker:
         self._record(out, result.stats)
         return True
 
+    def check(self):
+        """SetupError when the baked object was deleted or its vertex or face count changed (the bake's
+        frames would not fit it)."""
+        try:
+            counts = problem.topology_counts(self.obj.data)
+        except ReferenceError:
+            raise SetupError("'%s' was deleted during the bake: nothing was written" % self.name) from None
+        if counts != self.counts:
+            raise SetupError("The vertices or faces of '%s' changed during the bake: nothing was written"
+                             % self.name)
+
     def _begin_frame(self):
+        self.check()
         f = self.frames[self.index]
         self._frame_started = time.perf_counter()
         self.scene.frame_set(f)

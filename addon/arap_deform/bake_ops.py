@@ -15,6 +15,7 @@ import bpy
 from bpy.props import EnumProperty, IntProperty, StringProperty
 
 from . import bake, errors, meshio, sessions, status_overlay, ui
+from .errors import SetupError
 from .native_loader import native
 
 TICK_S = 1.0 / 60.0     # the modal's timer
@@ -47,6 +48,7 @@ class InteractiveBake:
     status bar and the viewport draw."""
 
     current = None   # the running InteractiveBake, read by draw_status_bar
+    timer = None     # (window manager, the modal's timer) while it runs: unregister() removes it
 
     def __init__(self, baker):
         self.baker = baker
@@ -64,7 +66,7 @@ class InteractiveBake:
 
     def status(self):
         b = self.baker
-        return "ARAP bake of '%s': frame %d (%d of %d)" % (b.obj.name, b.frames[max(b.index - 1, 0)], b.index,
+        return "ARAP bake of '%s': frame %d (%d of %d)" % (b.name, b.frames[max(b.index - 1, 0)], b.index,
                                                            len(b.frames))
 
     def count(self):
@@ -87,6 +89,7 @@ class InteractiveBake:
                 self.posted = False
                 solved = True
         if solved:
+            self.baker.check()
             self.preview.write(self.baker.last_positions.ravel())
         return self.baker.done
 
@@ -102,7 +105,12 @@ class InteractiveBake:
 
     def _stop(self):
         self.worker.stop()
-        self.snapshot.restore()
+        try:
+            self.baker.check()
+        except SetupError:
+            pass   # deleted, or edited meanwhile: the mesh is the user's now, nothing to take back
+        else:
+            self.snapshot.restore()
         if InteractiveBake.current is self:
             InteractiveBake.current = None
 
@@ -219,15 +227,14 @@ class ARAP_OT_bake(bpy.types.Operator):
             return errors.report_error(self, exc)
         wm = context.window_manager
         self._timer = wm.event_timer_add(TICK_S, window=context.window)
+        InteractiveBake.timer = (wm, self._timer)
         wm.modal_handler_add(self)
         bpy.types.STATUSBAR_HT_header.append(draw_status_bar)
         status_overlay.add(bake_status_lines)
         return {'RUNNING_MODAL'}
 
     def _end(self, context):
-        context.window_manager.event_timer_remove(self._timer)
-        bpy.types.STATUSBAR_HT_header.remove(draw_status_bar)
-        status_overlay.remove(bake_status_lines)
+        _remove_progress()
         status_overlay.redraw(context, REDRAWN)
 
     def modal(self, context, event):
@@ -250,6 +257,24 @@ class ARAP_OT_bake(bpy.types.Operator):
             return errors.report_error(self, exc)
         status_overlay.redraw(context, REDRAWN)
         return {'RUNNING_MODAL'}
+
+
+def _remove_progress():
+    """The modal's timer, status bar progress and viewport lines away (once)."""
+    timer, InteractiveBake.timer = InteractiveBake.timer, None
+    if timer is not None:
+        timer[0].event_timer_remove(timer[1])
+    bpy.types.STATUSBAR_HT_header.remove(draw_status_bar)   # no error when it is not there
+    status_overlay.remove(bake_status_lines)
+
+
+def stop_running():
+    """The add-on is disabled during an interactive bake: cancel it (nothing changed, the mesh as it was) and
+    take its timer and progress away, which would outlive the operator."""
+    run = InteractiveBake.current
+    if run is not None:
+        run.cancel()
+    _remove_progress()
 
 
 class ARAP_OT_bake_clear(bpy.types.Operator):
@@ -291,4 +316,9 @@ class ARAP_PT_bake(ui.SubPanel, bpy.types.Panel):
 
 
 classes = (ARAP_OT_bake, ARAP_OT_bake_clear, ARAP_PT_bake)
-register, unregister = bpy.utils.register_classes_factory(classes)
+register, _unregister_classes = bpy.utils.register_classes_factory(classes)
+
+
+def unregister():
+    stop_running()
+    _unregister_classes()

@@ -8,9 +8,10 @@ Fixed vertices keep their rest position. Which vertices are fixed and which
 follow which handle is decided by the core library's rule (gather()).
 """
 
+import bpy
 import numpy as np
 
-from . import meshio, native_loader
+from . import meshio, native_loader, sessions
 from .errors import SetupError  # noqa: F401 - raised here, imported from here by callers
 
 
@@ -85,6 +86,30 @@ def check_object(obj):
                              % (what, block.name, block.library.filepath))
     if obj.mode == 'EDIT':
         raise SetupError("Leave Edit Mode first (Tab): ARAP reads and writes the mesh in Object Mode")
+    check_mesh_not_posed_elsewhere(obj)
+
+
+def check_mesh_not_posed_elsewhere(obj):
+    """SetupError when a linked duplicate of `obj` (another object with the same mesh) poses that mesh with
+    Auto mode or Live: one mesh has one pose, so only one of them can."""
+    session = sessions.session_on_shared_mesh(obj)
+    other = auto_poser_of_mesh(obj)
+    if session is None and other is None:
+        return
+    by, owner = ("Live", session.names[0]) if session is not None else ("Auto mode", other.name)
+    raise SetupError("'%s' shares its mesh '%s' with '%s', whose %s poses it: stop it there, or make the mesh "
+                     "single-user (Object > Relations > Make Single User)" % (obj.name, obj.data.name, owner, by))
+
+
+def auto_poser_of_mesh(obj):
+    """Another object with Auto mode on that uses `obj`'s mesh (a linked duplicate), or None."""
+    mesh = obj.data
+    if mesh.users < 2:
+        return None
+    for other in bpy.data.objects:
+        if other != obj and other.data == mesh and other.arap.auto:
+            return other
+    return None
 
 
 def gather(obj, scene=None):
@@ -160,6 +185,27 @@ def handle_transforms(setup, obj_matrix, empty_matrices, obj_name="the posed obj
     """Per handle: the object-local 4x4 map M_obj^-1 @ M_now @ M_bind^-1 @ M_obj."""
     obj_inv = invert(obj_matrix, "'%s'" % obj_name)
     return [obj_inv @ m_now @ h.bind_inv @ obj_matrix for h, m_now in zip(setup.handles, empty_matrices)]
+
+
+# Farthest a handle may move its vertices, in sizes of the mesh: there float32 coordinates (Blender's) round
+# to 1e4 * 2^-24, about 6e-4 of the size, so the posed shape is still there to see; beyond, it is lost.
+MAX_REACH = 1e4
+
+
+def check_reach(setup, rest_constrained, targets, size):
+    """SetupError naming the handle and its Empty when `targets` move a vertex farther from its rest place than
+    MAX_REACH times the mesh's `size` (an Empty scaled or moved out to float32's end). A NaN target is left to
+    the solver, which refuses it."""
+    limit = MAX_REACH * max(size, np.finfo(np.float32).tiny)
+    reach = np.abs(targets - rest_constrained).max(initial=0.0)
+    if reach <= limit:
+        return
+    for h in setup.handles:
+        far = np.abs(targets[h.start:h.stop] - rest_constrained[h.start:h.stop]).max(initial=0.0)
+        if far > limit:
+            raise SetupError("Handle '%s' would move its vertices %.3g away, more than %d times the mesh's size "
+                             "(%.3g): its Empty '%s' is moved or scaled too far for the pose to be kept. Move or "
+                             "scale it back" % (h.group, far, MAX_REACH, size, h.empty.name))
 
 
 def fill_targets(setup, rest_constrained, transforms, out):

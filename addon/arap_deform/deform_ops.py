@@ -38,6 +38,7 @@ class ARAP_OT_deform(bpy.types.Operator):
         description="The shape the solver starts from")
 
     running = None   # the modal Deform's job while it runs (what the viewport's lines show)
+    timer = None     # (window manager, its timer) while it runs: unregister() removes it
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
@@ -88,6 +89,7 @@ class ARAP_OT_deform(bpy.types.Operator):
         status_overlay.add(deform_status_lines)
         wm = context.window_manager
         self._timer = wm.event_timer_add(POLL_S, window=context.window)
+        ARAP_OT_deform.timer = (wm, self._timer)
         wm.modal_handler_add(self)
         status_overlay.redraw(context)
         return {'RUNNING_MODAL'}
@@ -96,7 +98,7 @@ class ARAP_OT_deform(bpy.types.Operator):
         job = self._job
         if event.type == 'ESC' and event.value == 'PRESS':
             self._end(context)
-            self.report({'INFO'}, "ARAP Deform stopped: '%s' is unchanged" % job.obj.name)
+            self.report({'INFO'}, "ARAP Deform stopped: '%s' is unchanged" % job.name)
             return {'CANCELLED'}
         if event.type == 'TIMER':
             try:
@@ -122,12 +124,27 @@ class ARAP_OT_deform(bpy.types.Operator):
     def _end(self, context):
         if self._job is not None:
             self._job.stop()
-        if self._timer is not None:
+        if self._timer is not None and ARAP_OT_deform.timer is not None:
             context.window_manager.event_timer_remove(self._timer)
-            self._timer = None
-        ARAP_OT_deform.running = None
-        status_overlay.remove(deform_status_lines)
+        self._timer = None
+        _forget_running()
         status_overlay.redraw(context)
+
+
+def _forget_running():
+    ARAP_OT_deform.running = ARAP_OT_deform.timer = None
+    status_overlay.remove(deform_status_lines)
+
+
+def stop_running():
+    """The add-on is disabled while a modal Deform runs: stop its solve (the mesh stays as it was) and remove
+    its timer and lines, which would outlive the operator."""
+    job, timer = ARAP_OT_deform.running, ARAP_OT_deform.timer
+    if job is not None:
+        job.stop()
+    if timer is not None:
+        timer[0].event_timer_remove(timer[1])
+    _forget_running()
 
 
 def deform_status_lines():
@@ -137,7 +154,7 @@ def deform_status_lines():
         return []
     iterations, energy = job.progress
     return ["ARAP Deform on '%s': %d of at most %d iterations, energy %.5g"
-            % (job.obj.name, iterations, job.max_iterations, energy),
+            % (job.name, iterations, job.max_iterations, energy),
             "Esc: stop (the mesh stays as it was)"]
 
 
@@ -170,4 +187,9 @@ class ARAP_OT_set_rest_pose(_ApplyToActiveObject, bpy.types.Operator):
 
 
 classes = (ARAP_OT_deform, ARAP_OT_reset, ARAP_OT_set_rest_pose)
-register, unregister = bpy.utils.register_classes_factory(classes)
+register, _unregister_classes = bpy.utils.register_classes_factory(classes)
+
+
+def unregister():
+    stop_running()
+    _unregister_classes()

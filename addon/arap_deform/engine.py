@@ -14,6 +14,7 @@ import time
 import numpy as np
 
 from . import constraints, meshio, solver_cache
+from .errors import SetupError
 from .native_loader import native
 from .problem import (Problem, bind_warnings, collapsed_handles_warning, contact_warning, solver_options,
                       sync_matrices, unconverged_warning)
@@ -61,6 +62,8 @@ class DeformJob:
         self.obj, self.scene = obj, scene
         sync_matrices()
         self.problem = Problem(obj, scene)
+        self.name = obj.name    # a deleted object's own name can no longer be read
+        self.topology = meshio.Topology(obj.data)
         self.pose = self.problem.pose(obj, scene)
         self.targets = self.problem.targets(self.pose)
         self.solver, self.bind_ms, self.cached = solver_cache.bound_solver(obj, self.problem)
@@ -87,12 +90,34 @@ class DeformJob:
         return self.worker.progress if self.worker is not None else (0, 0.0)
 
     def poll(self):
-        """The DeformResult once the worker's solve is done (the mesh written), else None."""
-        result = self.worker.take(self.positions)
+        """The DeformResult once the worker's solve is done (the mesh written), else None. SetupError (the
+        worker stopped, nothing written) when the object was deleted or its mesh changed meanwhile."""
+        try:
+            self.check(full=False)
+            result = self.worker.take(self.positions)
+            if result is not None:
+                self.check(full=True)
+        except SetupError:
+            self.stop()
+            raise
         if result is None:
             return None
         self.stop()
         return self._finish(result.stats)
+
+    def check(self, full=True):
+        """SetupError when the object was deleted, or its mesh's vertices or faces changed since the job
+        started (the pose would go into the wrong vertices): element counts, and with `full` each face
+        corner's vertex too (renumbered vertices)."""
+        try:
+            mesh, mode = self.obj.data, self.obj.mode
+        except ReferenceError:
+            raise SetupError("'%s' was deleted while Deform solved: nothing was written" % self.name) from None
+        if mode == 'EDIT':
+            raise SetupError("'%s' went into Edit Mode while Deform solved: nothing was written" % self.name)
+        if not (self.topology.unchanged(mesh) if full else self.topology.counts_match(mesh)):
+            raise SetupError("The vertices or faces of '%s' changed while Deform solved: nothing was written; "
+                             "run Deform again" % self.name)
 
     def stop(self):
         """Stop the worker (the solve in progress ends after its iteration); the mesh stays as it is."""

@@ -13,6 +13,8 @@ import time
 
 import numpy as np
 
+from .errors import SetupError
+
 REST_ATTRIBUTE = "arap_rest"
 SHAPE_KEY_NAME = "ARAP"
 
@@ -166,7 +168,12 @@ class Output:
     def write(self, flat):
         mesh = self.obj.data
         if self.mode == 'SHAPE_KEY':
-            mesh.shape_keys.key_blocks[SHAPE_KEY_NAME].data.foreach_set("co", flat)
+            keys = mesh.shape_keys
+            key = keys.key_blocks.get(SHAPE_KEY_NAME) if keys is not None else None
+            if key is None:
+                raise SetupError("The shape key '%s' of '%s' was removed while it was being posed"
+                                 % (SHAPE_KEY_NAME, self.obj.name))
+            key.data.foreach_set("co", flat)
         else:
             mesh.vertices.foreach_set("co", flat)
         mesh.update()

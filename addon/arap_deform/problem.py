@@ -138,8 +138,11 @@ class Problem:
     def targets(self, pose):
         """The constrained vertices' targets for `pose` (float64 (k, 3): fixed vertices at rest, each
         handle's block moved by its transform), in this Problem's buffer: the next call overwrites it.
-        SetupError when the object has zero scale."""
-        return constraints.fill_targets(self.setup, self.rest_constrained, pose.transforms, self._targets)
+        SetupError when the object has zero scale, or when a handle moves its vertices farther than its
+        coordinates can hold the mesh's shape (constraints.check_reach)."""
+        targets = constraints.fill_targets(self.setup, self.rest_constrained, pose.transforms, self._targets)
+        constraints.check_reach(self.setup, self.rest_constrained, targets, self.size)
+        return targets
 
     def collapsed(self, pose):
         """The groups of the handles whose Empty `pose` scales to almost nothing since its bind pose."""

@@ -26,6 +26,20 @@ def session_for(obj):
     return None
 
 
+def session_on_shared_mesh(obj):
+    """The running Live session of another object that poses `obj`'s mesh (a linked duplicate), or None."""
+    mesh = obj.data
+    if mesh.users < 2:
+        return None
+    for session in _sessions:
+        try:
+            if session.obj != obj and session.obj.data == mesh:
+                return session
+        except ReferenceError:
+            continue
+    return None
+
+
 def running():
     """The running Live sessions."""
     return list(_sessions)
