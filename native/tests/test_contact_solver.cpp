@@ -190,6 +190,28 @@ TEST(ContactSolver, ABarFoldedIntoItselfCrossesWithoutContactAndNotWithIt) {
   }
 }
 
+// The same fold in any unit (docs/robustness.md, "any unit"): the solver works in
+// a power of two near the largest coordinate, so scales other than powers of two
+// see the same bar times a factor in [1/2, 2) and rounded differently. This fold
+// leaves sides of the bar creased against each other, corners in each other's
+// plane to rounding, where the first guess is checked for crossings.
+TEST(ContactSolver, ABarFoldedIntoItselfFoldsTheSameInAnyUnit) {
+  const Scene s = bent_bar(kFold * 0.8, 200);
+  const Result unit = solve(s, with_contact(Contact::Self));
+  ASSERT_EQ(crossing_pairs(unit.positions, s.triangles).size(), 0u);
+  EXPECT_GT(unit.stats.contact_pairs, 0) << "the pose should rest against itself somewhere";
+  for (double scale : {1e-6, 1e6, 1e30, 1e-30}) {
+    Scene scaled = s;
+    scaled.rest *= scale;
+    scaled.targets *= scale;
+    const Result r = solve(scaled, with_contact(Contact::Self));
+    ASSERT_TRUE(r.positions.allFinite()) << "scale " << scale;
+    EXPECT_EQ(r.stats.contact_rounds, unit.stats.contact_rounds) << "scale " << scale;
+    // Within 1e-9 of the bar's length (5) once scaled back.
+    EXPECT_LT((r.positions / scale - unit.positions).rowwise().norm().maxCoeff(), 1e-9 * 5.0) << "scale " << scale;
+  }
+}
+
 TEST(ContactSolver, LocalGlobalAndVolumeModesKeepTheGuaranteeToo) {
   const Scene s = bent_bar(kFold);
   for (arap::Volume volume : {arap::Volume::None, arap::Volume::Global, arap::Volume::Infill}) {

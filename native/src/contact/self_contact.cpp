@@ -722,13 +722,20 @@ bool SelfContact::is_clear(const double* P, double* barrier_energy) {
 }
 
 // Whether triangles f and g (sharing no vertex) cross: an edge of one through
-// the other. A triangle wholly on one side of the other's plane, or both in
-// one plane (an overlap there is not a crossing), is passed without the edge tests.
+// the other. Crossing triangles each have corners strictly on both sides of the
+// other's plane; one that only touches the other's plane (corners in it and on
+// one side, or all in it: an overlap there is not a crossing) is passed without
+// the edge tests. A corner within a tolerance of the plane, far above the
+// rounding of the signed volumes, counts as in it: a side folded at a crease
+// leaves corners in each other's plane, which measure a few ulps to either side
+// depending on the unit's rounding, and an edge test of an edge lying in the
+// plane is decided by that rounding.
 bool SelfContact::triangles_cross(const double* P, int f, int g) const {
   if (share_vertex(&triangles_(f, 0), &triangles_(g, 0))) return false;
-  auto one_side = [&](int a, int b) {
+  auto straddles = [&](int a, int b) {
     const Vec3 p = row(P, triangles_(b, 0));
     const Vec3 n = (row(P, triangles_(b, 1)) - p).cross(row(P, triangles_(b, 2)) - p);
+    // Signed volumes n.(x - p) scale as L^3 and |n| as L^2: a distance of 1e-12 sqrt|n| from the plane.
     const double tolerance = 1e-12 * n.norm() * std::sqrt(n.norm());
     int above = 0, below = 0;
     for (int i = 0; i < 3; ++i) {
@@ -736,9 +743,9 @@ bool SelfContact::triangles_cross(const double* P, int f, int g) const {
       above += side > tolerance;
       below += side < -tolerance;
     }
-    return above == 3 || below == 3 || (above == 0 && below == 0);
+    return above > 0 && below > 0;
   };
-  if (one_side(f, g) || one_side(g, f)) return false;
+  if (!straddles(f, g) || !straddles(g, f)) return false;
   for (int pass = 0; pass < 2; ++pass) {
     const int a = pass == 0 ? f : g, b = pass == 0 ? g : f;
     for (int e = 0; e < 3; ++e)
