@@ -246,6 +246,19 @@ class AutoFollowsItsObject(unittest.TestCase):
         bpy.context.view_layer.update()
         self.assertEqual(len(auto._posers), 0)
 
+    def test_an_object_taken_out_of_the_scene_stops_its_worker(self):
+        poser = auto.AutoPoser(self.obj, bpy.context.scene)
+        self.obj.arap["auto"] = True
+        auto._posers[self.obj.as_pointer()] = poser
+        poser.update(self.obj, bpy.context.evaluated_depsgraph_get(), on_worker=True)   # a preview under way
+        self.assertIsNotNone(poser.worker)
+        for collection in self.obj.users_collection:
+            collection.objects.unlink(self.obj)
+        move(self.empty, 0.2)
+        self.assertNotIn(self.obj.as_pointer(), auto._posers)
+        self.assertIsNone(poser.worker)
+        self.obj.arap["auto"] = False
+
     def test_a_new_object_at_a_deleted_ones_address_poses_with_its_own_empty(self):
         api.set_auto(self.obj, True)
         move(self.empty, 0.4)

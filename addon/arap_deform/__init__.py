@@ -23,7 +23,7 @@ if "bpy" in locals():
     # Script reload (F3 > Reload Scripts): reload submodules in dependency order.
     import importlib
     for _name in ("native_loader", "errors", "temp_files", "properties", "meshio", "constraints", "problem",
-                  "solver_cache", "sessions", "status_overlay", "engine", "live", "anim_compat", "api", "bake", "background_bind", "auto",
+                  "solver_cache", "sessions", "status_overlay", "modal_timers", "engine", "live", "anim_compat", "api", "bake", "background_bind", "auto",
                   "setup_ops", "deform_ops", "live_ops", "ui", "bake_ops", "saving"):
         if _name in locals():
             importlib.reload(locals()[_name])
@@ -42,9 +42,10 @@ def register():
 
 
 def unregister():
-    from . import engine, sessions
+    from . import engine, modal_timers, sessions
     sessions.stop_all_sessions()
     engine.clear_cache()
     live_ops.live_status_off()
     for mod in reversed(_modules):
         mod.unregister()
+    modal_timers.remove_all()   # Live's, once its sessions are cancelled above

@@ -440,9 +440,10 @@ def forget(obj=None):
 
 
 def _drop_deleted():
-    """Stop and drop the state of objects deleted since the last update."""
+    """Stop and drop the state of objects deleted, or taken out of every scene, since the last update (no
+    update would poll their workers again)."""
     for uid, poser in list(_posers.items()):
-        if not poser.alive():
+        if not poser.alive() or not poser.obj.users_scene:
             _drop(uid)
 
 

@@ -14,7 +14,7 @@ import time
 import bpy
 from bpy.props import EnumProperty, IntProperty, StringProperty
 
-from . import bake, errors, meshio, sessions, status_overlay, ui
+from . import bake, errors, meshio, modal_timers, sessions, status_overlay, ui
 from .errors import SetupError
 from .native_loader import native
 
@@ -48,7 +48,6 @@ class InteractiveBake:
     status bar and the viewport draw."""
 
     current = None   # the running InteractiveBake, read by draw_status_bar
-    timer = None     # (window manager, the modal's timer) while it runs: unregister() removes it
 
     def __init__(self, baker):
         self.baker = baker
@@ -225,10 +224,8 @@ class ARAP_OT_bake(bpy.types.Operator):
             self._run = InteractiveBake(self._start(context))
         except Exception as exc:  # noqa: BLE001
             return errors.report_error(self, exc)
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(TICK_S, window=context.window)
-        InteractiveBake.timer = (wm, self._timer)
-        wm.modal_handler_add(self)
+        modal_timers.add(self.bl_idname, context, TICK_S)
+        context.window_manager.modal_handler_add(self)
         bpy.types.STATUSBAR_HT_header.append(draw_status_bar)
         status_overlay.add(bake_status_lines)
         return {'RUNNING_MODAL'}
@@ -260,10 +257,8 @@ class ARAP_OT_bake(bpy.types.Operator):
 
 
 def _remove_progress():
-    """The modal's timer, status bar progress and viewport lines away (once)."""
-    timer, InteractiveBake.timer = InteractiveBake.timer, None
-    if timer is not None:
-        timer[0].event_timer_remove(timer[1])
+    """The modal's timer, status bar progress and viewport lines away."""
+    modal_timers.remove(ARAP_OT_bake.bl_idname)
     bpy.types.STATUSBAR_HT_header.remove(draw_status_bar)   # no error when it is not there
     status_overlay.remove(bake_status_lines)
 

@@ -11,7 +11,7 @@ done, as one undo step).
 
 import bpy
 
-from . import engine, errors, sessions, solver_settings, status_overlay
+from . import engine, errors, modal_timers, sessions, solver_settings, status_overlay
 
 # Input that still reaches the viewport while Deform runs (looking around); the rest waits.
 NAVIGATION = {'MIDDLEMOUSE', 'WHEELUPMOUSE', 'WHEELDOWNMOUSE', 'MOUSEMOVE', 'INBETWEEN_MOUSEMOVE',
@@ -38,12 +38,10 @@ class ARAP_OT_deform(bpy.types.Operator):
         description="The shape the solver starts from")
 
     running = None   # the modal Deform's job while it runs (what the viewport's lines show)
-    timer = None     # (window manager, its timer) while it runs: unregister() removes it
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self._job = None
-        self._timer = None
         self._shown = None
 
     def _start_job(self, context):
@@ -87,10 +85,8 @@ class ARAP_OT_deform(bpy.types.Operator):
             return errors.report_error(self, exc)
         ARAP_OT_deform.running = self._job
         status_overlay.add(deform_status_lines)
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(POLL_S, window=context.window)
-        ARAP_OT_deform.timer = (wm, self._timer)
-        wm.modal_handler_add(self)
+        modal_timers.add(self.bl_idname, context, POLL_S)
+        context.window_manager.modal_handler_add(self)
         status_overlay.redraw(context)
         return {'RUNNING_MODAL'}
 
@@ -124,26 +120,21 @@ class ARAP_OT_deform(bpy.types.Operator):
     def _end(self, context):
         if self._job is not None:
             self._job.stop()
-        if self._timer is not None and ARAP_OT_deform.timer is not None:
-            context.window_manager.event_timer_remove(self._timer)
-        self._timer = None
         _forget_running()
         status_overlay.redraw(context)
 
 
 def _forget_running():
-    ARAP_OT_deform.running = ARAP_OT_deform.timer = None
+    modal_timers.remove(ARAP_OT_deform.bl_idname)
+    ARAP_OT_deform.running = None
     status_overlay.remove(deform_status_lines)
 
 
 def stop_running():
     """The add-on is disabled while a modal Deform runs: stop its solve (the mesh stays as it was) and remove
     its timer and lines, which would outlive the operator."""
-    job, timer = ARAP_OT_deform.running, ARAP_OT_deform.timer
-    if job is not None:
-        job.stop()
-    if timer is not None:
-        timer[0].event_timer_remove(timer[1])
+    if ARAP_OT_deform.running is not None:
+        ARAP_OT_deform.running.stop()
     _forget_running()
 
 

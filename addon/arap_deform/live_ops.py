@@ -7,7 +7,7 @@ never waits for a solve."""
 
 import bpy
 
-from . import errors, live, sessions, status_overlay
+from . import errors, live, modal_timers, sessions, status_overlay
 
 
 def live_status_lines():
@@ -75,9 +75,8 @@ class ARAP_OT_live(bpy.types.Operator):
             return errors.report_error(self, exc)
         for w in self._session.warnings:
             self.report({'WARNING'}, w)
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(obj.arap.live_interval, window=context.window)
-        wm.modal_handler_add(self)
+        self._timer = modal_timers.add(self._session, context, obj.arap.live_interval)
+        context.window_manager.modal_handler_add(self)
         _live_status(True)
         status_overlay.redraw(context)
         return {'RUNNING_MODAL'}
@@ -151,7 +150,7 @@ class ARAP_OT_live(bpy.types.Operator):
 
     def _cleanup(self, context):
         if self._timer is not None:
-            context.window_manager.event_timer_remove(self._timer)
+            modal_timers.remove(self._session)
             self._timer = None
 
     def _end(self, context, apply, error=None):

@@ -135,6 +135,58 @@ def steps():
     check(obj.data.shape_keys is None and (U.raw_coords(obj) == rest).all(), "disabled: nothing was changed")
     check(U.enable_addon() is not None, "enabled again")
     yield 0.5
+    U.clear_scene()
+
+    # 5. Disabled during Live: cancelled (the mesh and the Empty back), Live's timer gone; enabled again, Live
+    #    starts.
+    obj, empty, _top = slow_bar("Live", cuts=30)
+    obj.arap.method, obj.arap.tolerance = 'QUASI_NEWTON', 1e-5
+    empty.location.x = 0.0
+    bpy.context.view_layer.update()
+    rest = U.raw_coords(obj).copy()
+    check(invoke(bpy.ops.object.arap_live) == {'RUNNING_MODAL'}, "Live runs")
+    empty.location.x = 0.5
+    yield 1.0
+    check(abs(U.raw_coords(obj) - rest).max() > 0.3, "Live poses the mesh")
+    timers = U.addon("modal_timers")
+    U.disable_addon()
+    yield 0.5
+    check((U.raw_coords(obj) == rest).all() and empty.location.x == 0.0, "disabled: Live cancelled, all restored")
+    check(not timers._timers, "disabled: no modal's timer is left")
+    check(U.enable_addon() is not None, "enabled again")
+    check(invoke(bpy.ops.object.arap_live) == {'RUNNING_MODAL'}, "Live runs again")
+    empty.location.x = 0.5
+    yield 1.0
+    check(abs(U.raw_coords(obj) - rest).max() > 0.3, "and poses the mesh")
+    with bpy.context.temp_override(**view3d_override()):
+        bpy.ops.object.arap_live_cancel()
+    yield 0.5
+    check((U.raw_coords(obj) == rest).all(), "Live cancelled from the panel's button")
+    U.clear_scene()
+
+    # 6. Reload Scripts (F3) while Auto's worker solves: Auto goes on in the reloaded add-on.
+    obj, empty, top = slow_bar("Reloaded")
+    rest_top = U.coords(obj)[top].mean(axis=0)
+    obj.arap.auto = True
+    empty.location.x += 0.1
+    bpy.context.view_layer.update()
+    yield 0.5
+    with bpy.context.temp_override(**view3d_override()):
+        bpy.ops.script.reload()
+    yield 1.0
+    auto = U.addon("auto")
+    obj.arap.method, obj.arap.tolerance = 'QUASI_NEWTON', 1e-5
+    auto.forget(obj)   # bind again with the settings just changed
+    empty.location.x += 0.2
+    bpy.context.view_layer.update()
+    end = time.monotonic() + GIVE_UP_S
+    while not auto.status(obj).startswith("settled") and time.monotonic() < end:
+        yield STEP_S
+    moved = centroid(obj, top) - rest_top
+    check(abs(moved[0] - empty.location.x) < 1e-3,
+          "after Reload Scripts the mesh follows its Empty (top moved by %.4f, the Empty by %.4f)"
+          % (moved[0], empty.location.x))
+    obj.arap.auto = False
 
 
 def main():
