@@ -23,8 +23,9 @@ if "bpy" in locals():
     # Script reload (F3 > Reload Scripts): reload submodules in dependency order.
     import importlib
     for _name in ("native_loader", "errors", "temp_files", "properties", "meshio", "constraints", "problem",
-                  "solver_cache", "sessions", "status_overlay", "modal_timers", "engine", "live", "anim_compat", "api", "bake", "background_bind", "auto",
-                  "setup_ops", "deform_ops", "live_ops", "ui", "bake_ops", "saving"):
+                  "solver_cache", "sessions", "status_overlay", "modal_timers", "engine", "live", "anim_compat",
+                  "api", "bake", "background_bind", "auto", "setup_ops", "deform_ops", "live_ops", "ui", "bake_ops",
+                  "saving"):
         if _name in locals():
             importlib.reload(locals()[_name])
 

@@ -48,6 +48,24 @@ def centroid(obj, indices):
     return U.coords(obj)[indices].mean(axis=0)
 
 
+def auto_follows(obj, empty, top, rest_top, when):
+    """Steps: with a settling method, Auto (in the add-on loaded now) follows one more move of the Empty to a
+    settled pose whose top moved as far as the Empty (it started at x = 0); then Auto off."""
+    auto = U.addon("auto")
+    obj.arap.method, obj.arap.tolerance = 'QUASI_NEWTON', 1e-5
+    auto.forget(obj)   # bind again with the settings just changed
+    empty.location.x += 0.2
+    bpy.context.view_layer.update()
+    end = time.monotonic() + GIVE_UP_S
+    while not auto.status(obj).startswith("settled") and time.monotonic() < end:
+        yield STEP_S
+    moved = centroid(obj, top) - rest_top
+    check(auto.status(obj).startswith("settled") and obj.arap.auto, "%s: Auto settles (%s)" % (when, auto.status(obj)))
+    check(abs(moved[0] - empty.location.x) < 1e-3, "%s: the mesh follows its Empty (top moved by %.4f, the Empty "
+          "by %.4f)" % (when, moved[0], empty.location.x))
+    obj.arap.auto = False
+
+
 def steps():
     """The scenario, one yield per step; a yielded number is the seconds to wait before the next."""
     U.clear_scene()
@@ -86,18 +104,7 @@ def steps():
     check(poser.worker is None, "disabled: Auto's worker stopped")
     check(not bpy.app.timers.is_registered(auto._continue), "disabled: Auto's timer is gone")
     check(U.enable_addon() is not None, "enabled again")
-    auto = U.addon("auto")
-    obj.arap.method, obj.arap.tolerance = 'QUASI_NEWTON', 1e-5
-    empty.location.x += 0.3
-    bpy.context.view_layer.update()
-    end = time.monotonic() + GIVE_UP_S
-    while not auto.status(obj).startswith("settled") and time.monotonic() < end:
-        yield STEP_S
-    moved = centroid(obj, top) - rest_top
-    check(auto.status(obj).startswith("settled") and obj.arap.auto, "Auto settles again (%s)" % auto.status(obj))
-    check(abs(moved[0] - empty.location.x) < 1e-3,
-          "the mesh follows its Empty again (top moved by %.4f, the Empty by %.4f)" % (moved[0], empty.location.x))
-    obj.arap.auto = False
+    yield from auto_follows(obj, empty, top, rest_top, "enabled again")
     U.clear_scene()
 
     # 3. Disabled while a modal Deform solves: its solve stops, the mesh is untouched; enabled again, Deform
@@ -174,19 +181,7 @@ def steps():
     with bpy.context.temp_override(**view3d_override()):
         bpy.ops.script.reload()
     yield 1.0
-    auto = U.addon("auto")
-    obj.arap.method, obj.arap.tolerance = 'QUASI_NEWTON', 1e-5
-    auto.forget(obj)   # bind again with the settings just changed
-    empty.location.x += 0.2
-    bpy.context.view_layer.update()
-    end = time.monotonic() + GIVE_UP_S
-    while not auto.status(obj).startswith("settled") and time.monotonic() < end:
-        yield STEP_S
-    moved = centroid(obj, top) - rest_top
-    check(abs(moved[0] - empty.location.x) < 1e-3,
-          "after Reload Scripts the mesh follows its Empty (top moved by %.4f, the Empty by %.4f)"
-          % (moved[0], empty.location.x))
-    obj.arap.auto = False
+    yield from auto_follows(obj, empty, top, rest_top, "after Reload Scripts")
 
 
 def main():
