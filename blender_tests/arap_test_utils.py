@@ -57,18 +57,6 @@ def enable_addon(handle_error=None):
     return addon_utils.enable(ADDON_MODULE, default_set=True, handle_error=handle_error)
 
 
-def load_addon(addon_dir):
-    """For the benchmarks: register the add-on from `addon_dir` (a staged build/addon) as the plain
-    package arap_deform, or, with no folder, enable the installed one (ADDON_MODULE)."""
-    global ADDON_MODULE
-    if addon_dir:
-        sys.path.insert(0, os.path.abspath(addon_dir))
-        ADDON_MODULE = "arap_deform"
-        addon().register()
-    elif enable_addon() is None:
-        raise SystemExit("could not enable %s (give --addon-dir or set BLENDER_USER_SCRIPTS)" % ADDON_MODULE)
-
-
 def disable_addon():
     addon_utils.disable(ADDON_MODULE, default_set=True)
 

@@ -19,8 +19,8 @@ import subprocess
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path[:0] = [HERE, os.path.join(HERE, "..", "..", "blender_tests")]   # tube_scene; the tests' helpers
-import arap_test_utils as U  # noqa: E402
+sys.path.insert(0, HERE)   # tube_scene, bench_addon
+import bench_addon as U  # noqa: E402
 
 U.enable_addon()
 import batch_fixtures as F  # noqa: E402  (after enable_addon: it uses the add-on's api)

@@ -27,8 +27,9 @@ import numpy as np
 from mathutils import Matrix
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path[:0] = [HERE, os.path.join(HERE, "..", "..", "blender_tests"), os.path.join(HERE, "..", "native")]
-import arap_test_utils as U  # noqa: E402
+sys.path.insert(0, HERE)   # tube_scene, bench_addon
+import bench_addon as U  # noqa: E402
+sys.path.insert(0, U.BENCH_NATIVE)   # volume_table
 from tube_scene import add_group  # noqa: E402
 from volume_table import read_obj  # noqa: E402
 

@@ -22,8 +22,9 @@ from mathutils import Matrix
 
 OUT, ADDON_DIR, VERTICES = sys.argv[sys.argv.index("--") + 1:][:3]
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path[:0] = [HERE, os.path.join(HERE, "..", "..", "blender_tests"), os.path.join(HERE, "..", "..", "blender_tests", "gui")]
-import arap_test_utils as U  # noqa: E402
+sys.path.insert(0, HERE)   # tube_scene, bench_addon
+import bench_addon as U  # noqa: E402
+sys.path.insert(0, U.BLENDER_GUI_TESTS)   # session_files
 import session_files  # noqa: E402
 from tube_scene import add_group, make_tube  # noqa: E402
 

@@ -16,8 +16,8 @@ import numpy as np
 from mathutils import Matrix
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path[:0] = [HERE, os.path.join(HERE, "..", "..", "blender_tests")]   # tube_scene; the tests' helpers
-import arap_test_utils as U  # noqa: E402
+sys.path.insert(0, HERE)   # tube_scene, bench_addon
+import bench_addon as U  # noqa: E402
 
 
 def sphere(segments, rings):

@@ -1,7 +1,7 @@
 # The tube scene of the Blender-side benchmarks (bench_live.py, bench_playback.py):
 # an open tube of quads, its bottom fifth fixed and its top 5 % on an Empty,
 # for ARAP and for Blender's Laplacian Deform + Hook with the same anchors
-# (arap_test_utils, the tests' helpers, clears the scene, adds Empties and loads the add-on).
+# (bench_addon.py loads the add-on, clears the scene and adds Empties).
 import math
 
 import bpy

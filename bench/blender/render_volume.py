@@ -1,7 +1,7 @@
 """The picture of docs/volume.md: one bent bar posed by surface ARAP,
 Volume Global and Volume Infill, side by side, rendered headlessly by Blender.
 
-    blender --background --factory-startup --python bench/native/render_volume.py -- \\
+    blender --background --factory-startup --python bench/blender/render_volume.py -- \\
         build/results/volume bar1_x2 docs/volume_bar1.png
 
 Reads CASE_none.off, CASE_global.off and CASE_infill.off from the folder that
@@ -17,7 +17,8 @@ import sys
 import bpy
 from mathutils import Vector
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.join(HERE, "..", "native")]   # volume_table (its mesh reader)
 from volume_table import read_off  # noqa: E402
 
 MODES = (("none", "Surface only"), ("global", "Volume Global"), ("infill", "Volume Infill"))

@@ -2,7 +2,7 @@
 ARAP and with Self Contact, side by side, rendered headlessly by Blender; the
 triangles that pass through the surface are drawn red.
 
-    blender --background --factory-startup --python bench/native/render_contact.py -- \\
+    blender --background --factory-startup --python bench/blender/render_contact.py -- \\
         build/results/contact bar1_x2 docs/contact_bar1.png
 
 Reads CASE_none_none.off (surface only) and CASE_none_self.off (Self Contact)
@@ -18,7 +18,8 @@ import sys
 import bpy
 from mathutils import Vector
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [HERE, os.path.join(HERE, "..", "native")]   # render_volume; volume_table (its mesh reader)
 from render_volume import render  # noqa: E402
 from volume_table import read_off  # noqa: E402
 
