@@ -53,6 +53,15 @@ class Launcher(unittest.TestCase):
         for tree in (SOURCE, BUILD):
             self.assertTrue(os.access(os.path.join(tree, "arap-batch"), os.X_OK), tree)
 
+    def test_iterations_limit_is_the_solvers(self):
+        # The launcher checks --iterations in plain Python 3, without the native module, against its own copy of
+        # the limit: that copy must be the native option table's max_iterations maximum, in both trees.
+        limit = U.addon("native_loader").native().OPTIONS["max_iterations"]["max"]
+        for tree in (SOURCE, BUILD):
+            code, out = run(["-c", "import arap_batch.cli as c; print(c.MAX_ITERATIONS)"], cwd=tree)
+            self.assertEqual(code, 0, out)
+            self.assertEqual(int(out), limit, tree)
+
     def test_source_add_on_without_module_is_a_usage_error(self):
         blend = S.make_good(os.path.join(self.tmp, "a.blend"))
         code, out = run([os.path.join(SOURCE, "arap-batch"), blend, "--output", os.path.join(self.tmp, "out"),

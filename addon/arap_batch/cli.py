@@ -66,7 +66,9 @@ WORKER_EXPR = ("import sys; sys.path.insert(0, %r); "
 FILES_PER_SHARD = 25        # default --shards: a task's Blender start-up is paid over this many files
 MAX_SHARDS = 1000           # Slurm's default MaxArraySize is 1001
 MAX_FRAME = 1048574         # Blender's frames run from -MAX_FRAME to MAX_FRAME
-MAX_ITERATIONS = 1000000    # the solver's max_iterations limit (native/src/options.cpp)
+# The solver's max_iterations limit (the native option table's maximum), for checking --iterations without the
+# native module; blender_tests/test_batch_launcher.py fails when the two differ.
+MAX_ITERATIONS = 1000000
 
 
 def default_addon_dir():
