@@ -1,6 +1,7 @@
 # ctest bench_smoke: arap-bench on tiny procedural meshes and on a 12-vertex
 # box given both as an OFF file and as a scenario JSON; checks the exit code
-# and that results.md / results.json hold a row for every mesh.
+# and that results.md / results.json hold a row for every mesh; where CGAL is installed (CGAL_INSTALLED),
+# that the benchmark compares with it.
 # Runs arap-bench with the arguments given; stops the test when it fails.
 function(run_bench)
   execute_process(COMMAND ${BENCH} ${ARGN} RESULT_VARIABLE status)
@@ -40,6 +41,18 @@ file(READ ${WORK}/results/results.json doc)
 string(JSON meshes LENGTH "${doc}" meshes)
 if(NOT meshes EQUAL 6)
   message(FATAL_ERROR "results.json lists ${meshes} meshes, expected 6")
+endif()
+# Where configure found CGAL (libcgal-dev installed), the benchmark compares with it: a build that lost its
+# peer fails here instead of running without its CGAL columns.
+string(JSON cgal GET "${doc}" cgal_available)
+if(CGAL_INSTALLED AND NOT cgal)
+  message(FATAL_ERROR "CGAL is installed, but arap-bench was built without the CGAL comparison")
+endif()
+if(cgal)
+  string(JSON preprocess ERROR_VARIABLE no_cgal GET "${doc}" meshes 0 cgal preprocess_ms)
+  if(no_cgal)
+    message(FATAL_ERROR "arap-bench has CGAL but measured no CGAL preprocess:\n${no_cgal}")
+  endif()
 endif()
 
 # The time-to-band mode: every method on the box scenario, a short budget.
