@@ -13,8 +13,6 @@
 #include "bound_mesh.h"
 #include "contact/handle_moves.h"
 #include "contact/self_contact.h"
-#include "infill.h"
-#include "infill_volume.h"
 #include "initial_guess.h"
 #include "lbfgs.h"
 #include "linalg/spd_solve.h"
@@ -23,7 +21,9 @@
 #include "runtime/prefault.h"
 #include "runtime/vector_halves.h"
 #include "unit_scale.h"
-#include "volume.h"
+#include "volume/infill.h"
+#include "volume/infill_volume.h"
+#include "volume/volume.h"
 
 namespace arap {
 
@@ -167,12 +167,12 @@ struct Solver::Impl {
   bool qn_plain = false;  // qn_d is the plain step
   double qn_slope = 0;    // dE/dalpha along qn_d, the direction of the next step
   Points last_targets;
-  // Volume::Global (see volume.h): the constraint, and at qn_x its gradient n
+  // Volume::Global (see volume/volume.h): the constraint, and at qn_x its gradient n
   // and u = L^-1 n (#free by 3 each); the quasi-Newton path then keeps the
   // Lagrangian gradient in qn_g. Local/global runs on that path too, without history.
   VolumeConstraint volume;
   std::vector<double> qn_n, qn_u;
-  // Volume::Infill's bulk term (see infill_volume.h), on the same path.
+  // Volume::Infill's bulk term (see volume/infill_volume.h), on the same path.
   LatticeBulk bulk;
   bool qn_history = true;
   // Contact::Self: the barrier and collision checks; contact_from is the state
@@ -203,6 +203,13 @@ struct Solver::Impl {
   // contact_free_part_done()); chunks of it are resumed like any solve's.
   bool contact_deferred = false;
   InitialGuess contact_deferred_guess = InitialGuess::Naive;
+
+  // The volume terms and contact run on the quasi-Newton path (local/global: without its history), see
+  // volume/volume.h.
+  bool runs_quasi_newton() const {
+    return options.method == Method::QuasiNewton ||
+           ((volume.active() || bulk.active() || contact.active()) && options.method == Method::LocalGlobal);
+  }
 
   // Whether the barrier and the collision checks take part in this iteration.
   bool contact_on() const { return contact.active() && !contact_deferred; }
@@ -837,10 +844,7 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
         guess == InitialGuess::WarmStart && s.rotations_valid && s.options.max_iterations > 0;
     // A cold start forgets every hint of the last solve: same input, same output bit for bit.
     if (guess != InitialGuess::WarmStart) std::fill(s.eigenvalues.begin(), s.eigenvalues.end(), 0.0);
-    // Volume::Global runs on the quasi-Newton path (local/global: without its history), see volume.h.
-    const bool quasi_newton =
-        s.options.method == Method::QuasiNewton ||
-        ((s.volume.active() || s.bulk.active() || s.contact.active()) && s.options.method == Method::LocalGlobal);
+    const bool quasi_newton = s.runs_quasi_newton();
     const bool resume = quasi_newton && guess == InitialGuess::WarmStart && s.qn_resumable &&
                         s.last_targets.rows() == targets.rows() && s.last_targets == targets;
     // A cold solve with contact runs without the barrier first (contact_free_part_done()).
@@ -984,9 +988,7 @@ SolveStats Solver::solve(const Eigen::Ref<const Points>& targets) {
     stats.contact_lists = s.contact.lists_made() - contact_lists_before;
   }
   // A solve whose handles were still on their way when time ran out starts the way again.
-  if (!contact_interrupted &&
-      (s.options.method == Method::QuasiNewton ||
-       ((s.volume.active() || s.bulk.active() || s.contact.active()) && s.options.method == Method::LocalGlobal))) {
+  if (!contact_interrupted && s.runs_quasi_newton()) {
     s.qn_resumable = true;
     s.qn_energy = s.last_energy;
     s.last_targets = targets;

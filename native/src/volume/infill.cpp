@@ -1,4 +1,4 @@
-#include "infill.h"
+#include "volume/infill.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@
 
 #include "arap/errors.h"
 #include "union_find.h"
-#include "winding.h"
+#include "volume/winding.h"
 
 namespace arap {
 
