@@ -263,7 +263,7 @@ double Solver::energy(const Eigen::Ref<const Points>& positions) const {
   std::vector<Eigen::Matrix3d> R;
   double e = evaluate(s.mesh, s.unit, positions, s.options.threads, "energy()", s.state, P, R);
   if (s.volume_term) e += s.volume_term->energy(P.data());
-  if (s.contact.active()) e += contact::SelfContact(s.contact.barrier()).energy(P.data());
+  if (s.contact.active()) e += s.contact.energy_at(P.data());
   return energy_to_user_units(e, s.unit);
 }
 
@@ -276,11 +276,7 @@ Points Solver::energy_gradient(const Eigen::Ref<const Points>& positions) const 
   Points gradient(s.mesh.n, 3), gradient_input;
   arap::energy_gradient(s.mesh, P.data(), R.data(), gradient.data());
   if (s.volume_term) s.volume_term->add_gradient(P.data(), gradient.data());
-  if (s.contact.active()) {
-    contact::SelfContact c(s.contact.barrier());
-    c.energy(P.data());
-    c.add_gradient(gradient.data());
-  }
+  if (s.contact.active()) s.contact.add_gradient_at(P.data(), gradient.data());
   to_input(s.mesh, gradient, gradient_input);
   gradient_input *= s.unit;  // E = unit^2 E(p / unit): dE/dp = unit dE_internal
   if (!gradient_input.allFinite())

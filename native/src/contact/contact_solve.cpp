@@ -84,6 +84,12 @@ void ContactSolve::resume(SolverHooks& solver, SolveStats& stats) {
   stats.contact_stopped_vertex = stopped_vertex_;
 }
 
+void ContactSolve::add_gradient_at(const double* P, double* gradient) const {
+  SelfContact at(barrier_);
+  at.energy(P);
+  at.add_gradient(gradient);
+}
+
 void ContactSolve::step_from(const Points& state, const std::vector<int>& free_row, double* g) {
   if (!on()) return;
   barrier_.add_half_gradient(free_row, g);

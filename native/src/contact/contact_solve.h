@@ -55,7 +55,10 @@ class ContactSolve {
   bool on() const { return active() && !deferred_; }
   // 2 when a cold solve may run in two parts (each with the iteration cap), else 1.
   int parts() const { return active() ? 2 : 1; }
-  const SelfContact& barrier() const { return barrier_; }
+  // The barrier's energy at P (#n by 3), and its gradient added to `gradient` (every vertex), for
+  // Solver::energy() and energy_gradient(): the solve's own state is left alone.
+  double energy_at(const double* P) const { return SelfContact(barrier_).energy(P); }
+  void add_gradient_at(const double* P, double* gradient) const;
 
   // A solve begins: `state` holds the last positions (before the first guess). `resume`: it continues the
   // last quasi-Newton solve; `cold_in_two_parts`: a cold quasi-Newton solve that runs without the
