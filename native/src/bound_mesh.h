@@ -11,8 +11,8 @@
 #include "arap/mesh_check.h"
 #include "arap/options.h"
 #include "arap/types.h"
-#include "infill.h"
 #include "runtime/large_buffer.h"
+#include "volume/infill.h"
 
 namespace arap {
 

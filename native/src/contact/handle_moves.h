@@ -1,5 +1,5 @@
 // Where the constrained vertices go in one round of a forced pose
-// (Contact::Self, solver.cpp's reach_first_guess): each part of them that
+// (Contact::Self, contact_solve.h's reach_first_guess): each part of them that
 // moves as one turns and shifts as a rigid body toward its targets, the best
 // fit of their move (Kabsch), plus that share of what the fit leaves over.
 // Straight lines would meet where a part turns about itself (a handle turned

@@ -38,7 +38,6 @@ class SelfContact {
   double activation() const { return activation_; }
   long lists_made() const { return lists_made_; }
   long active_pairs() const { return static_cast<long>(active_.size()); }
-  long excluded_pairs() const { return static_cast<long>(excluded_vt_.size() + excluded_ee_.size()); }
 
   // What moving every vertex from P0 to P1 (#n by 3 each, row-major) meets:
   // `fraction` of the step that is safe (1: all of it), and, when all of it

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "bound_mesh.h"
-#include "infill.h"
+#include "volume/infill.h"
 
 namespace arap {
 

@@ -1,4 +1,4 @@
-#include "volume.h"
+#include "volume/volume.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,16 +1,17 @@
-#include "infill.h"
+#include "volume/infill.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <string>
 #include <unordered_map>
+#include <utility>
 
 #include <Eigen/Geometry>
 
 #include "arap/errors.h"
 #include "union_find.h"
-#include "winding.h"
+#include "volume/winding.h"
 
 namespace arap {
 
@@ -117,47 +118,51 @@ std::vector<Eigen::Vector3i> part_cells(const Grid& grid, const WindingNumber& w
   return cells;
 }
 
-}  // namespace
+// The lattice as it grows, part after part: its nodes, its edges (summed over
+// the cubes that share them) and each node's neighbours along the axes.
+struct Lattice {
+  Grid grid;
+  double edge_weight = 0;  // per cube, to each of its 12 edges
+  double coupling = 0;     // a surface vertex's edge to its corner, per unit of the vertex's area
+  std::vector<Eigen::Vector3d> nodes;
+  std::unordered_map<std::uint64_t, double> edges;  // pair_key(node a, node b) -> weight
+};
 
-InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
-                         int resolution) {
-  InfillGraph out;
-  const int n = static_cast<int>(rest.rows());
-  const Parts parts = split_parts(rest, triangles);
+// The grid over the box of the parts' vertices, `resolution` cubes along its
+// longest side; false when it has no normal cube size (no lattice).
+bool make_lattice(const Eigen::Ref<const Points>& rest, const Parts& parts, int resolution, Lattice& lattice) {
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = -lo;
   for (const auto& list : parts.vertices)
     for (int v : list) lo = lo.cwiseMin(rest.row(v).transpose()), hi = hi.cwiseMax(rest.row(v).transpose());
   const double longest = parts.vertices.empty() ? 0.0 : (hi - lo).maxCoeff();
-  Grid grid;
+  Grid& grid = lattice.grid;
   grid.h = longest / resolution;
   // A flat mesh, or one whose faces span less than a normal double's worth of cubes next to a far
   // vertex no face uses (coordinates arrive scaled to the largest), carries no lattice: it is
   // solved as the surface, as an open mesh is.
-  if (!std::isnormal(grid.h)) return out;
+  if (!std::isnormal(grid.h)) return false;
   for (int d = 0; d < 3; ++d) grid.dims[d] = std::max(1, static_cast<int>(std::ceil((hi[d] - lo[d]) / grid.h - 1e-9)));
   grid.origin = 0.5 * (lo + hi) - 0.5 * grid.h * grid.dims.cast<double>();
-  out.spacing = grid.h;
-  out.preconditioner_scale = 1 + 9 * kInfillBulk;
-  const double edge_weight = kLatticeStiffness * grid.h / longest / 4;  // per cube, to each of its 12 edges
-  const double coupling = kCoupling / (grid.h * grid.h);
+  lattice.edge_weight = kLatticeStiffness * grid.h / longest / 4;
+  lattice.coupling = kCoupling / (grid.h * grid.h);
+  return true;
+}
 
-  std::vector<Eigen::Vector3d> nodes;
-  std::unordered_map<std::uint64_t, double> lattice_edges;  // pair_key(node a, node b) -> weight
-  long budget = kMaxCells;
-  for (size_t part = 0; part < parts.faces.size(); ++part) {
-    const std::vector<int>& members = parts.vertices[part];
-    std::vector<Eigen::Vector3i> vertex_cells;
-    for (int v : members) vertex_cells.push_back(grid.cell_of(rest.row(v).transpose()));
-    const WindingNumber winding(rest, triangles, parts.faces[part]);
-    const std::vector<Eigen::Vector3i> cells = part_cells(grid, winding, vertex_cells, budget);
-    std::unordered_map<CellKey, int> active;  // cell -> index in `cells`
+// One part's cubes and the lattice nodes at their corners. Two cubes side by
+// side share their corners only when the centre of the face between them is
+// inside: the lattice follows the inside of the part, and two limbs closer
+// than a cube (each in cubes of its own) stay apart (cf. Rivers & James, who
+// split voxels so). Corner q of cube i is 8 i + q; shared corners are merged
+// (union-find) into nodes.
+struct PartCubes {
+  std::vector<Eigen::Vector3i> cells;
+  std::unordered_map<CellKey, int> active;  // cell -> index in `cells`
+  UnionFind corners;
+  std::vector<int> node_of;  // corner slot -> node
+
+  PartCubes(const Grid& grid, const WindingNumber& winding, std::vector<Eigen::Vector3i> part)
+      : cells(std::move(part)), corners(8 * static_cast<int>(cells.size())), node_of(8 * cells.size(), -1) {
     for (size_t i = 0; i < cells.size(); ++i) active.emplace(key_of(cells[i]), static_cast<int>(i));
-
-    // Two cubes side by side share their corners only when the centre of the face between
-    // them is inside: the lattice follows the inside of the part, and two limbs closer than
-    // a cube (each in cubes of its own) stay apart (cf. Rivers & James, who split voxels so).
-    // Corner q of cube i is 8 i + q; shared corners are merged (union-find) into nodes.
-    UnionFind corners(8 * static_cast<int>(cells.size()));
     for (size_t i = 0; i < cells.size(); ++i)
       for (int axis = 0; axis < 3; ++axis) {
         Eigen::Vector3i next = cells[i];
@@ -171,71 +176,123 @@ InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<
         for (int q = 0; q < 8; ++q)
           if (q & bit) corners.join(8 * it->second + (q ^ bit), 8 * static_cast<int>(i) + q);
       }
-    std::vector<int> node_of(8 * cells.size(), -1);  // corner slot -> node
-    auto node = [&](int i, int q) {
-      const int root = corners.root(8 * i + q);
-      if (node_of[root] < 0) {
-        node_of[root] = static_cast<int>(nodes.size());
-        nodes.push_back(grid.corner(cells[i] + Eigen::Vector3i(q & 1, (q >> 1) & 1, (q >> 2) & 1)));
-        out.neighbors.push_back({-1, -1, -1, -1, -1, -1});
-      }
-      return node_of[root];
-    };
-    // The 12 edges of every cube (corners one bit apart), and each node's neighbours along the axes.
+  }
+
+  // The node at corner q of cube i, made on first use.
+  int node(Lattice& lattice, InfillGraph& out, int i, int q) {
+    const int root = corners.root(8 * i + q);
+    if (node_of[root] < 0) {
+      node_of[root] = static_cast<int>(lattice.nodes.size());
+      lattice.nodes.push_back(lattice.grid.corner(cells[i] + Eigen::Vector3i(q & 1, (q >> 1) & 1, (q >> 2) & 1)));
+      out.neighbors.push_back({-1, -1, -1, -1, -1, -1});
+    }
+    return node_of[root];
+  }
+
+  // The 12 edges of every cube (corners one bit apart), and each node's neighbours along the axes.
+  void add_edges(Lattice& lattice, InfillGraph& out) {
     for (size_t i = 0; i < cells.size(); ++i) {
       int corner[8];
-      for (int q = 0; q < 8; ++q) corner[q] = node(static_cast<int>(i), q);
+      for (int q = 0; q < 8; ++q) corner[q] = node(lattice, out, static_cast<int>(i), q);
       for (int q = 0; q < 8; ++q)
         for (int axis = 0; axis < 3; ++axis)
           if (!(q & (1 << axis))) {
             const int a = corner[q], b = corner[q | (1 << axis)];
-            lattice_edges[pair_key(a, b)] += edge_weight;
+            lattice.edges[pair_key(a, b)] += lattice.edge_weight;
             out.neighbors[a][2 * axis + 1] = b;
             out.neighbors[b][2 * axis] = a;
           }
       ++out.cells;
     }
-    // Each vertex to one corner of its cube: the corner of largest barycentric
-    // weight in the Kuhn tetrahedron that holds it (the cube split along its
-    // main diagonal, by the order of the local coordinates). A vertex whose
-    // own cube is not in the lattice uses the nearest lattice cube next to it,
-    // its coordinates clamped: its offset, rotated with the lattice, is kept.
-    for (size_t index = 0; index < members.size(); ++index) {
-      const int v = members[index];
-      if (!(parts.vertex_area[v] > 0)) continue;
-      const Eigen::Vector3d p = rest.row(v).transpose();
-      auto found = active.find(key_of(vertex_cells[index]));
-      if (found == active.end()) {
-        double best = INFINITY;
-        for (int q = 0; q < 27; ++q) {
-          const auto it = active.find(key_of(vertex_cells[index] + offset(q)));
-          if (it == active.end()) continue;
-          const Eigen::Vector3d box = grid.corner(cells[it->second]);
-          const double d = (p - p.cwiseMax(box).cwiseMin(box + Eigen::Vector3d::Constant(grid.h))).squaredNorm();
-          if (d < best) best = d, found = it;
-        }
-      }
-      const int cube = found->second;
-      const Eigen::Vector3i cell = cells[cube];
-      const Eigen::Vector3d t = ((p - grid.origin) / grid.h - cell.cast<double>()).cwiseMax(0.0).cwiseMin(1.0);
-      int axis[3] = {0, 1, 2};
-      std::sort(axis, axis + 3, [&](int x, int y) { return t[x] > t[y]; });
-      const double weights[4] = {1 - t[axis[0]], t[axis[0]] - t[axis[1]], t[axis[1]] - t[axis[2]], t[axis[2]]};
-      int corner = 0, bound = 0;
-      double heaviest = weights[0];
-      for (int k = 1; k < 4; ++k) {
-        corner |= 1 << axis[k - 1];  // the Kuhn path 000 -> a -> ab -> abc
-        if (weights[k] > heaviest) heaviest = weights[k], bound = corner;
-      }
-      out.edges.push_back({v, n + node(cube, bound), coupling * parts.vertex_area[v]});
-    }
   }
-  std::vector<std::pair<std::uint64_t, double>> sorted(lattice_edges.begin(), lattice_edges.end());
+
+  // The cube a vertex at p in `cell` binds to: its own, or when that is not in
+  // the lattice the nearest lattice cube next to it.
+  int cube_of(const Grid& grid, const Eigen::Vector3d& p, const Eigen::Vector3i& cell) const {
+    auto found = active.find(key_of(cell));
+    if (found == active.end()) {
+      double best = INFINITY;
+      for (int q = 0; q < 27; ++q) {
+        const auto it = active.find(key_of(cell + offset(q)));
+        if (it == active.end()) continue;
+        const Eigen::Vector3d box = grid.corner(cells[it->second]);
+        const double d = (p - p.cwiseMax(box).cwiseMin(box + Eigen::Vector3d::Constant(grid.h))).squaredNorm();
+        if (d < best) best = d, found = it;
+      }
+    }
+    return found->second;
+  }
+};
+
+// The corner (bits x, y, z) of largest barycentric weight in the Kuhn
+// tetrahedron holding local coordinates t in [0, 1]^3: the cube split along
+// its main diagonal, by the order of the coordinates.
+int heaviest_kuhn_corner(const Eigen::Vector3d& t) {
+  int axis[3] = {0, 1, 2};
+  std::sort(axis, axis + 3, [&](int x, int y) { return t[x] > t[y]; });
+  const double weights[4] = {1 - t[axis[0]], t[axis[0]] - t[axis[1]], t[axis[1]] - t[axis[2]], t[axis[2]]};
+  int corner = 0, bound = 0;
+  double heaviest = weights[0];
+  for (int k = 1; k < 4; ++k) {
+    corner |= 1 << axis[k - 1];  // the Kuhn path 000 -> a -> ab -> abc
+    if (weights[k] > heaviest) heaviest = weights[k], bound = corner;
+  }
+  return bound;
+}
+
+// Each vertex of a part to one corner of its cube, the heaviest of its Kuhn
+// tetrahedron. A vertex whose own cube is not in the lattice uses the nearest
+// lattice cube next to it, its coordinates clamped: its offset, rotated with
+// the lattice, is kept.
+void bind_vertices(const Eigen::Ref<const Points>& rest, const Parts& parts, const std::vector<int>& members,
+                   const std::vector<Eigen::Vector3i>& vertex_cells, PartCubes& cubes, Lattice& lattice,
+                   InfillGraph& out) {
+  const Grid& grid = lattice.grid;
+  const int n = static_cast<int>(rest.rows());
+  for (size_t index = 0; index < members.size(); ++index) {
+    const int v = members[index];
+    if (!(parts.vertex_area[v] > 0)) continue;
+    const Eigen::Vector3d p = rest.row(v).transpose();
+    const int cube = cubes.cube_of(grid, p, vertex_cells[index]);
+    const Eigen::Vector3d t =
+        ((p - grid.origin) / grid.h - cubes.cells[cube].cast<double>()).cwiseMax(0.0).cwiseMin(1.0);
+    const int corner = cubes.node(lattice, out, cube, heaviest_kuhn_corner(t));
+    out.edges.push_back({v, n + corner, lattice.coupling * parts.vertex_area[v]});
+  }
+}
+
+// The lattice's edges (sorted: the same graph on every run) and nodes into `out`.
+void write_lattice(const Lattice& lattice, int n, InfillGraph& out) {
+  std::vector<std::pair<std::uint64_t, double>> sorted(lattice.edges.begin(), lattice.edges.end());
   std::sort(sorted.begin(), sorted.end());
   for (const auto& [key, w] : sorted)
     out.edges.push_back({n + static_cast<int>(key >> 32), n + static_cast<int>(key & 0xffffffffu), w});
-  out.nodes.resize(static_cast<Eigen::Index>(nodes.size()), 3);
-  for (size_t k = 0; k < nodes.size(); ++k) out.nodes.row(static_cast<Eigen::Index>(k)) = nodes[k].transpose();
+  out.nodes.resize(static_cast<Eigen::Index>(lattice.nodes.size()), 3);
+  for (size_t k = 0; k < lattice.nodes.size(); ++k)
+    out.nodes.row(static_cast<Eigen::Index>(k)) = lattice.nodes[k].transpose();
+}
+
+}  // namespace
+
+InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
+                         int resolution) {
+  InfillGraph out;
+  const Parts parts = split_parts(rest, triangles);
+  Lattice lattice;
+  if (!make_lattice(rest, parts, resolution, lattice)) return out;
+  out.spacing = lattice.grid.h;
+  out.preconditioner_scale = 1 + 9 * kInfillBulk;
+  long budget = kMaxCells;
+  for (size_t part = 0; part < parts.faces.size(); ++part) {
+    const std::vector<int>& members = parts.vertices[part];
+    std::vector<Eigen::Vector3i> vertex_cells;
+    for (int v : members) vertex_cells.push_back(lattice.grid.cell_of(rest.row(v).transpose()));
+    const WindingNumber winding(rest, triangles, parts.faces[part]);
+    PartCubes cubes(lattice.grid, winding, part_cells(lattice.grid, winding, vertex_cells, budget));
+    cubes.add_edges(lattice, out);
+    bind_vertices(rest, parts, members, vertex_cells, cubes, lattice, out);
+  }
+  write_lattice(lattice, static_cast<int>(rest.rows()), out);
   return out;
 }
 

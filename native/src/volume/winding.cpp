@@ -1,4 +1,4 @@
-#include "winding.h"
+#include "volume/winding.h"
 
 #include <algorithm>
 #include <cmath>

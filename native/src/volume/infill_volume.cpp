@@ -1,4 +1,4 @@
-#include "infill_volume.h"
+#include "volume/infill_volume.h"
 
 #include <Eigen/Geometry>
 

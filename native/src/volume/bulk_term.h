@@ -1,0 +1,21 @@
+// Volume::Infill's bulk term (infill_volume.h) as a volume term: an energy on
+// the lattice nodes' volume change, added to ARAP's.
+#pragma once
+
+#include "volume/infill_volume.h"
+#include "volume/volume_term.h"
+
+namespace arap {
+
+class BulkTerm final : public VolumeTerm {
+ public:
+  LatticeBulk& bulk() { return bulk_; }
+  double energy(const double* P) const override { return bulk_.energy(P); }
+  void add_half_gradient(const double* P, double* g) const override { bulk_.add_half_gradient(P, g); }
+  void add_gradient(const double* P, double* gradient) const override { bulk_.add_gradient(P, gradient); }
+
+ private:
+  LatticeBulk bulk_;
+};
+
+}  // namespace arap

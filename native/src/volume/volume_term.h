@@ -1,0 +1,54 @@
+// What keeps the volume (Options::volume), as the solver sees it: a term of the
+// energy minimised with ARAP's (Infill's bulk term, infill_volume.h) or a
+// constraint every iterate stays on (Global, volume.h). Both run on the
+// quasi-Newton path; the solver calls these hooks at fixed points of it, so a
+// new model is a new term, not a new branch in the solve. The defaults are
+// those of a term that adds nothing (an energy term overrides the first three,
+// a constraint the others).
+#pragma once
+
+#include <functional>
+#include <memory>
+
+#include "arap/options.h"
+#include "arap/solve_stats.h"
+#include "arap/types.h"
+#include "bound_mesh.h"
+
+namespace arap {
+
+class VolumeTerm {
+ public:
+  // v <- L_ff^-1 v (3 per free row) with the solver's factored Laplacian.
+  using LaplacianSolve = std::function<void(double*)>;
+
+  virtual ~VolumeTerm() = default;
+
+  // The term's energy at P (#n by 3, internal order), added to ARAP's.
+  virtual double energy(const double*) const { return 0; }
+  // g += 1/2 dE/dp on the free rows (3 per free row).
+  virtual void add_half_gradient(const double*, double*) const {}
+  // gradient += dE/dp for every vertex (#n by 3, internal order).
+  virtual void add_gradient(const double*, double*) const {}
+
+  // Whether the term holds the positions on a constraint set.
+  virtual bool constrains() const { return false; }
+  // At P: takes the constraint's normal there, and makes the half gradient g that of the Lagrangian.
+  virtual void constrain_gradient(const double*, double*, const LaplacianSolve&, SolveStats&) {}
+  // A step d (3 per free row) onto the tangent plane of the last constrain_gradient() point.
+  virtual void project_direction(double*) {}
+  // A trial point P brought back onto the set; false when it cannot be (the trial is refused).
+  virtual bool retract(double*, SolveStats&) { return true; }
+  // P (a first guess) moved onto the set.
+  virtual void project(double*, const LaplacianSolve&, SolveStats&) {}
+  // How far P is from the set (reported at the end of a solve).
+  virtual double drift(const double*) const { return 0; }
+};
+
+// The term of `mode` for the bound `mesh` (`triangles`: internal indices; `lattice`: the infill's,
+// for Volume::Infill), or null when it has nothing to keep. Volume::Global reports its components in
+// mesh.report.
+std::unique_ptr<VolumeTerm> make_volume_term(Volume mode, BoundMesh& mesh, const Triangles& triangles,
+                                             const InfillGraph& lattice);
+
+}  // namespace arap
