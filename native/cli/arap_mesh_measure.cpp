@@ -11,7 +11,7 @@
 #include "arap/io/mesh_io.h"
 #include "arap/io/polygons.h"
 #include "arap/io/shape_measures.h"
-#include "arap/quality.h"
+#include "arap/tools/quality.h"
 
 namespace {
 

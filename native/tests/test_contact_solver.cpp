@@ -17,8 +17,8 @@
 
 #include "arap/errors.h"
 #include "arap/io/shape_measures.h"
-#include "arap/procedural.h"
 #include "arap/solver.h"
+#include "arap/tools/procedural.h"
 #include "contact/primitives.h"
 #include "contact/self_contact.h"
 #include "gradient_check.h"

@@ -450,7 +450,7 @@ TEST(Solver, AndersonAccelerationStaysMonotoneAndConvergesFaster) {
 
 }  // namespace
 
-#include "arap/quality.h"
+#include "arap/tools/quality.h"
 
 namespace {
 

@@ -11,9 +11,9 @@
 
 #include "arap/errors.h"
 #include "arap/io/mesh_io.h"
-#include "arap/procedural.h"
 #include "arap/io/shape_measures.h"
 #include "arap/solver.h"
+#include "arap/tools/procedural.h"
 #include "cli_fixture.h"
 
 namespace {
