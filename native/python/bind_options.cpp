@@ -21,23 +21,19 @@ py::object limit_value(const arap::OptionSpec& spec, double limit) {
                                                 : py::object(py::float_(limit));
 }
 
-// Sets one option from a Python value; its limits are checked by arap::check_options() afterwards.
+// Sets one option from a Python value of its type (str for a choice, int for
+// an integer, int or float for a number); arap::set_option() checks its limits.
 void set_option_from_python(arap::Options& o, const std::string& name, const py::handle& value) {
   const arap::OptionSpec& spec = arap::option_spec(name);
   if (spec.kind == arap::OptionKind::Choice) {
     if (!py::isinstance<py::str>(value)) throw py::type_error(name + ": expected one of " + arap::option_limits(spec));
-    spec.set_choice(o, py::cast<std::string>(value));
+    arap::set_option(o, spec, py::cast<std::string>(value));
     return;
   }
   const bool is_int = py::isinstance<py::int_>(value) && !py::isinstance<py::bool_>(value);
   if (spec.kind == arap::OptionKind::Integer && !is_int) throw py::type_error(name + ": expected an int");
   if (!is_int && !py::isinstance<py::float_>(value)) throw py::type_error(name + ": expected a number");
-  const double v = py::cast<double>(value);
-  // An int beyond the option's range must not wrap when it is stored.
-  if (!(v >= spec.min && v <= spec.max))
-    throw arap::Error(arap::ErrorCode::InvalidInput,
-                      name + " must be " + arap::option_limits(spec) + ", got " + std::string(py::str(value)));
-  spec.set_number(o, v);
+  arap::set_option(o, spec, py::cast<double>(value), std::string(py::str(value)));
 }
 
 }  // namespace
