@@ -479,21 +479,24 @@ void write_results(const json& doc, const std::filesystem::path& dir) {
   std::ofstream md(dir / "results.md");
   const json& set = doc["settings"];
   md << "# ARAP benchmark\n\n"
-     << "arap " << doc["arap_version"].get<std::string>() << ", " << doc["machine"]["cpu"].get<std::string>()
-     << ", " << doc["machine"]["compiler"].get<std::string>() << ", " << doc["date"].get<std::string>() << ".\n\n"
+     << "arap " << doc["arap_version"].get<std::string>() << ", " << doc["machine"]["cpu"].get<std::string>() << ", "
+     << doc["machine"]["compiler"].get<std::string>() << ", " << doc["date"].get<std::string>() << ".\n\n"
      << "- Scenario of procedural meshes and plain mesh files: bottom fifth (by the longest bounding-box axis) "
         "fixed, top 5 % moved sideways by 0.3 h. Scenario files: their own constraints.\n"
-     << "- Ours: plain local/global iterations (as CGAL's), first guess `" << set["init"].get<std::string>() << "`, " << set["iterations"].get<int>()
+     << "- Ours: plain local/global iterations (as CGAL's), first guess `" << set["init"].get<std::string>() << "`, "
+     << set["iterations"].get<int>()
      << " iterations per solve after a warm-up solve (first guess only); the energy after the last iteration is the "
         "reference E_ref. Thread counts after the first time the first weights over 30 iterations.\n"
      << "- Each measurement (ours and CGAL) is repeated up to 5 times while its runs took less than "
-     << set["repeat_seconds"].get<double>() << " s in all; the row is the run with the lowest median iteration "
+     << set["repeat_seconds"].get<double>()
+     << " s in all; the row is the run with the lowest median iteration "
         "time (small meshes get several tries, large ones one); ours/CGAL bind: after the runs, our bind "
         "(first weights, one thread, a fresh solver) and CGAL's prep alternate --bind-pairs times each (CPU time of "
         "the thread, each from trimmed memory); the column is the median [min–max] of the pairs' ratios "
         "(bind_pairs in results.json), or with no pairs the medians of the runs' bind and prep (wall).\n"
      << "- Times in ms. bind: total, with the shares of the fill-reducing ordering and of the numeric "
-        "factorization (the rest: checks, weights, Laplacian). iteration: median [min–max] over all iterations; rot / rhs / solve: shares of the mean "
+        "factorization (the rest: checks, weights, Laplacian). iteration: median [min–max] over all iterations; rot / "
+        "rhs / solve: shares of the mean "
         "iteration in the local step (with its energy), the right-hand side and the triangular solves (per-step "
         "means in results.json).\n"
      << "- peak MiB: extra resident memory at the peak of bind + solve, i.e. VmHWM minus VmRSS before, the peak "
@@ -508,7 +511,8 @@ void write_results(const json& doc, const std::filesystem::path& dir) {
      << " vertices. Its k-th iteration does the work of our first guess plus k-1 iterations.\n\n";
 
   md << "## Time\n\n"
-     << "| mesh | V | weights | thr | bind (order / factor %) | guess | iteration | rot / rhs / solve % | peak MiB | CGAL prep | "
+     << "| mesh | V | weights | thr | bind (order / factor %) | guess | iteration | rot / rhs / solve % | peak MiB | "
+        "CGAL prep | "
         "CGAL iteration | CGAL MiB | ours/CGAL iter | ours/CGAL bind |\n"
      << "|---|---:|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|\n";
   for (const json& m : doc["meshes"]) {
@@ -517,11 +521,11 @@ void write_results(const json& doc, const std::filesystem::path& dir) {
     for (const json& r : m["runs"]) {
       const json& it = r["iteration_ms"];
       md << "| " << m["name"].get<std::string>() << " | " << m["vertices"].get<long>() << " | "
-         << r["weights"].get<std::string>() << (r["anderson"].get<int>() ? " +AA" + std::to_string(r["anderson"].get<int>()) : "")
-         << " | " << r["threads"].get<int>() << " | " << fmt(r["bind_ms"]) << " (" << bind_percent(r) << ") | "
-         << fmt(r["init_ms"]) << " | " << fmt(it["median"]) << " [" << fmt(it["min"]) << "–" << fmt(it["max"])
-         << "] | " << split_percent(r)
-         << " | " << fmt(r["peak_mib"]) << " | ";
+         << r["weights"].get<std::string>()
+         << (r["anderson"].get<int>() ? " +AA" + std::to_string(r["anderson"].get<int>()) : "") << " | "
+         << r["threads"].get<int>() << " | " << fmt(r["bind_ms"]) << " (" << bind_percent(r) << ") | "
+         << fmt(r["init_ms"]) << " | " << fmt(it["median"]) << " [" << fmt(it["min"]) << "–" << fmt(it["max"]) << "] | "
+         << split_percent(r) << " | " << fmt(r["peak_mib"]) << " | ";
       if (has_cgal) {
         const json& ci = cg["iteration_ms"];
         md << fmt(cg["preprocess_ms"]) << " | " << fmt(ci["median"]) << " [" << fmt(ci["min"]) << "–"
@@ -549,18 +553,20 @@ void write_results(const json& doc, const std::filesystem::path& dir) {
       const json& e = r["energy_after"];
       if (r["timing_only"].get<bool>()) continue;
       md << "| " << m["name"].get<std::string>() << " | " << m["vertices"].get<long>() << " | "
-         << r["weights"].get<std::string>() << (r["anderson"].get<int>() ? " +AA" + std::to_string(r["anderson"].get<int>()) : "")
-         << " | " << r["threads"].get<int>() << " | " << fmt(r["initial_energy"], "%.6g") << " | "
-         << fmt(e["1"], "%.6g") << " | " << fmt(e["5"], "%.6g") << " | " << fmt(e["20"], "%.6g") << " | "
-         << fmt(e["100"], "%.6g") << " | " << fmt(r["reference_energy"], "%.6g") << " | "
-         << (r["iterations_to_1e-3"].get<int>() ? std::to_string(r["iterations_to_1e-3"].get<int>()) : "–")
-         << " | " << fmt(r["ms_to_1e-3"]) << " | ";
+         << r["weights"].get<std::string>()
+         << (r["anderson"].get<int>() ? " +AA" + std::to_string(r["anderson"].get<int>()) : "") << " | "
+         << r["threads"].get<int>() << " | " << fmt(r["initial_energy"], "%.6g") << " | " << fmt(e["1"], "%.6g")
+         << " | " << fmt(e["5"], "%.6g") << " | " << fmt(e["20"], "%.6g") << " | " << fmt(e["100"], "%.6g") << " | "
+         << fmt(r["reference_energy"], "%.6g") << " | "
+         << (r["iterations_to_1e-3"].get<int>() ? std::to_string(r["iterations_to_1e-3"].get<int>()) : "–") << " | "
+         << fmt(r["ms_to_1e-3"]) << " | ";
       const bool comparable = cg.is_object() && cg.contains("energy_after") && r["weights"] == "cotan-clamped";
       if (comparable) {
         const json& ce = cg["energy_after"];
         const int k = cg.value("iterations_to_1e-3", 0);
         md << fmt(ce["1"], "%.6g") << " | " << fmt(ce["5"], "%.6g") << " | " << fmt(ce["20"], "%.6g") << " | "
-           << (k ? std::to_string(k) + " / " + fmt(cg["ms_to_1e-3"]) : "> " + std::to_string(cg["iterations"].get<int>()))
+           << (k ? std::to_string(k) + " / " + fmt(cg["ms_to_1e-3"])
+                 : "> " + std::to_string(cg["iterations"].get<int>()))
            << " |\n";
       } else {
         md << "– | – | – | – |\n";
@@ -665,8 +671,9 @@ int main(int argc, char** argv) {
 
     const size_t total = procedural.size() + args.files.size();
     for (size_t index = 0; index < total; ++index) {
-      bench::Case c = index < procedural.size() ? bench::procedural_case(procedural[index].first, procedural[index].second)
-                                                : bench::file_case(args.files[index - procedural.size()]);
+      bench::Case c = index < procedural.size()
+                          ? bench::procedural_case(procedural[index].first, procedural[index].second)
+                          : bench::file_case(args.files[index - procedural.size()]);
       std::cerr << "[" << index + 1 << "/" << total << "] " << c.name << ": " << c.rest.rows() << " vertices, "
                 << c.constrained.size() << " constrained" << std::endl;
       if (args.settle_step > 0) {

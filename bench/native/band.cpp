@@ -218,8 +218,8 @@ std::string band_table(const json& meshes) {
     const json& qn = m["runs"][2];
     char ratio[32] = "–";
     if (!qn["cpu_ms_to_band"].is_null()) {
-      const double denominator =
-          plain["cpu_ms_to_band"].is_null() ? plain["cpu_ms_budget"].get<double>() : plain["cpu_ms_to_band"].get<double>();
+      const double denominator = plain["cpu_ms_to_band"].is_null() ? plain["cpu_ms_budget"].get<double>()
+                                                                   : plain["cpu_ms_to_band"].get<double>();
       std::snprintf(ratio, sizeof ratio, "%s%.3f", plain["cpu_ms_to_band"].is_null() ? "< " : "",
                     qn["cpu_ms_to_band"].get<double>() / denominator);
     }

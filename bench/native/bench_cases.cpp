@@ -6,7 +6,7 @@
 #include "arap/io/mesh_io.h"
 #include "arap/io/polygons.h"
 #include "arap/io/scenario.h"
-#include "arap/procedural.h"
+#include "arap/tools/procedural.h"
 
 namespace bench {
 namespace {

@@ -49,8 +49,9 @@ int main(int argc, char** argv) {
     else return std::fprintf(stderr, "unknown flag %s\n", argv[i]), 2;
   }
   using Kernel = arap::BlockCholesky::Kernel;
-  std::printf("| mesh | rows | factor entries (old / new) | bind's factor() CPU ms, old / new | numeric factor ms, old / "
-              "new | ratio | solve max rel. difference |\n|---|---:|---:|---:|---:|---:|---:|\n");
+  std::printf(
+      "| mesh | rows | factor entries (old / new) | bind's factor() CPU ms, old / new | numeric factor ms, old / "
+      "new | ratio | solve max rel. difference |\n|---|---:|---:|---:|---:|---:|---:|\n");
   for (const std::string& size : sizes)
     for (const std::string& shape : shapes) {
       const bench::Case c = bench::procedural_case(shape, std::stoi(size));
@@ -77,7 +78,8 @@ int main(int argc, char** argv) {
         }
       if (!old_kernel) cpu[0] = numeric[0] = cpu[1], x[0] = x[1];
       double diff = 0, scale = 0;
-      for (size_t i = 0; i < b.size(); ++i) diff = std::max(diff, std::abs(x[0][i] - x[1][i])), scale = std::max(scale, std::abs(x[0][i]));
+      for (size_t i = 0; i < b.size(); ++i)
+        diff = std::max(diff, std::abs(x[0][i] - x[1][i])), scale = std::max(scale, std::abs(x[0][i]));
       const double old_cpu = median(cpu[0]), new_cpu = median(cpu[1]);
       std::printf("| %s | %ld | %.3g M / %.3g M | %.1f / %.1f | %.1f / %.1f | %.2f | %.1e |\n", c.name.c_str(),
                   static_cast<long>(A.rows()), 1e-6 * entries[0], 1e-6 * entries[1], old_cpu, new_cpu,

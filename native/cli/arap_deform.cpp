@@ -15,8 +15,8 @@
 #include "arap/io/mesh_io.h"
 #include "arap/io/polygons.h"
 #include "arap/io/scenario.h"
-#include "arap/quality.h"
 #include "arap/solver.h"
+#include "arap/tools/quality.h"
 #include "deform_args.h"
 #include "deform_report.h"
 

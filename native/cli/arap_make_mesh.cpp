@@ -11,7 +11,7 @@
 #include "arap/io/mesh_io.h"
 #include "arap/io/numbers.h"
 #include "arap/io/polygons.h"
-#include "arap/procedural.h"
+#include "arap/tools/procedural.h"
 
 namespace {
 

@@ -11,7 +11,7 @@
 #include "arap/io/mesh_io.h"
 #include "arap/io/polygons.h"
 #include "arap/io/shape_measures.h"
-#include "arap/quality.h"
+#include "arap/tools/quality.h"
 
 namespace {
 
@@ -83,7 +83,8 @@ int main(int argc, char** argv) {
     r["cross_section_loops"] = sections.loops;
     r["cross_section_ratios"] = sections.ratios;
     std::vector<std::pair<int, int>> pairs;
-    r["self_intersections"] = measure::self_intersecting_pairs(posed.vertices, triangles, list_pairs ? &pairs : nullptr);
+    r["self_intersections"] =
+        measure::self_intersecting_pairs(posed.vertices, triangles, list_pairs ? &pairs : nullptr);
     if (list_pairs) r["intersecting_pairs"] = pairs;
     r["rest_self_intersections"] = measure::self_intersecting_pairs(rest.vertices, triangles);
     r["distortion"] = distortion;

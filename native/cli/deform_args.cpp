@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cstdio>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <utility>
 
+#include "arap/errors.h"
 #include "arap/io/files.h"
 #include "arap/io/numbers.h"
 
@@ -92,9 +94,7 @@ const std::map<std::string, std::vector<const char*>> kChoiceNotes = {
 };
 
 // --init warm: one solve has no previous solution to start from.
-bool refused_here(const std::string& option, const std::string& choice) {
-  return option == "init" && choice == "warm";
-}
+bool refused_here(const std::string& option, const std::string& choice) { return option == "init" && choice == "warm"; }
 
 // A number as users write it: 1000, 0.5, 1e-6.
 std::string shown(double x) {
@@ -104,8 +104,10 @@ std::string shown(double x) {
   const std::size_t e = s.find('e');
   if (e == std::string::npos) return s;
   std::size_t digits = e + 1;
-  if (s[digits] == '+') s.erase(digits, 1);
-  else if (s[digits] == '-') ++digits;
+  if (s[digits] == '+')
+    s.erase(digits, 1);
+  else if (s[digits] == '-')
+    ++digits;
   while (digits + 1 < s.size() && s[digits] == '0') s.erase(digits, 1);
   return s;
 }
@@ -184,11 +186,16 @@ double parse_number(const std::string& flag, const std::string& s) {
 
 // The solver options on the command line: flag -> arap::option_specs() name,
 // which gives their parsing, limits and messages.
-constexpr std::pair<const char*, const char*> kOptionFlags[] = {
-    {"--method", "method"},     {"--weights", "weights"},   {"--init", "init"},
-    {"--iterations", "max_iterations"}, {"--tolerance", "tolerance"}, {"--threads", "threads"},
-    {"--anderson", "anderson_window"}, {"--volume", "volume"}, {"--infill-resolution", "infill_resolution"},
-    {"--contact", "contact"}};
+constexpr std::pair<const char*, const char*> kOptionFlags[] = {{"--method", "method"},
+                                                                {"--weights", "weights"},
+                                                                {"--init", "init"},
+                                                                {"--iterations", "max_iterations"},
+                                                                {"--tolerance", "tolerance"},
+                                                                {"--threads", "threads"},
+                                                                {"--anderson", "anderson_window"},
+                                                                {"--volume", "volume"},
+                                                                {"--infill-resolution", "infill_resolution"},
+                                                                {"--contact", "contact"}};
 
 const char* option_of_flag(const std::string& flag) {
   for (const auto& [f, name] : kOptionFlags)
@@ -196,24 +203,30 @@ const char* option_of_flag(const std::string& flag) {
   return nullptr;
 }
 
+std::string flag_of_option(const std::string& name) {
+  for (const auto& [flag, option] : kOptionFlags)
+    if (name == option) return flag;
+  return "--" + name;
+}
+
 // Sets the option behind `flag` from its text, within the option's limits.
-void set_option(Options& options, const std::string& flag, const char* name, const std::string& text) {
+void set_option_from_flag(Options& options, const std::string& flag, const char* name, const std::string& text) {
   const std::string key = name;  // named: the table's entry outlives it, but a temporary argument looks dangling
   const OptionSpec& spec = option_spec(key);
   auto refuse = [&] { throw UsageError(flag + " expects " + option_limits(spec) + ", got " + quoted(text)); };
-  if (spec.kind == OptionKind::Choice) {
-    bool known = false;
-    for (const std::string& c : spec.choices) known = known || c == text;
-    if (!known) refuse();
-    spec.set_choice(options, text);
-    return;
-  }
   double v = 0;
   long long integer = 0;
-  if (spec.kind == OptionKind::Integer ? !io::parse_integer(text, integer) : !io::parse_finite(text, v)) refuse();
+  if (spec.kind == OptionKind::Integer && !io::parse_integer(text, integer)) refuse();
+  if (spec.kind == OptionKind::Real && !io::parse_finite(text, v)) refuse();
   if (spec.kind == OptionKind::Integer) v = static_cast<double>(integer);
-  if (v < spec.min || v > spec.max) refuse();
-  spec.set_number(options, v + 0.0);  // -0 is 0
+  try {
+    if (spec.kind == OptionKind::Choice)
+      arap::set_option(options, spec, text);
+    else
+      arap::set_option(options, spec, v + 0.0, text);  // -0 is 0
+  } catch (const Error&) {
+    refuse();
+  }
 }
 
 std::vector<std::string> split_commas(const std::string& s) {
@@ -269,7 +282,7 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
     } else if (const char* option = option_of_flag(arg)) {
       const std::string text = value();
       if (refused_here(option, text)) throw UsageError(arg + " " + text + " makes no sense for a single solve");
-      set_option(a.options, arg, option, text);
+      set_option_from_flag(a.options, arg, option, text);
       method_given = method_given || arg == "--method";
       anderson_given = anderson_given || arg == "--anderson";
       infill_resolution_given = infill_resolution_given || arg == "--infill-resolution";
@@ -293,11 +306,8 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
     throw UsageError("--anderson applies to --method anderson only");
   if (infill_resolution_given && a.options.volume != Volume::Infill)
     throw UsageError("--infill-resolution applies to --volume infill only");
-  if (a.options.volume != Volume::None && a.options.method == Method::Anderson)
-    throw UsageError("--volume " + to_string(a.options.volume) +
-                     " works with --method quasi-newton or local-global, not anderson");
-  if (a.options.contact != Contact::None && a.options.method == Method::Anderson)
-    throw UsageError("--contact " + to_string(a.options.contact) +
+  if (const std::optional<OptionConflict> conflict = method_conflict(a.options))
+    throw UsageError(flag_of_option(conflict->option) + " " + conflict->value +
                      " works with --method quasi-newton or local-global, not anderson");
   if (a.scenario.empty() == a.input.empty()) throw UsageError("give either --scenario S.json or an INPUT mesh");
   if (!a.scenario.empty() && (!a.fixed_file.empty() || !a.handles.empty()))

@@ -43,7 +43,8 @@ void check_bind_input(const Eigen::Ref<const Points>& rest, const Eigen::Ref<con
   if (!all_finite(rest))
     for (Eigen::Index v = 0; v < n; ++v)
       if (!rest.row(v).allFinite())
-        throw Error(ErrorCode::NonFinite, "rest position of vertex " + std::to_string(v) + " is not finite (NaN or Inf)");
+        throw Error(ErrorCode::NonFinite,
+                    "rest position of vertex " + std::to_string(v) + " is not finite (NaN or Inf)");
   if (!all_below(triangles, static_cast<int>(n)))
     for (Eigen::Index f = 0; f < triangles.rows(); ++f)
       for (int k = 0; k < 3; ++k) {
@@ -58,47 +59,39 @@ void check_bind_input(const Eigen::Ref<const Points>& rest, const Eigen::Ref<con
   std::vector<char> seen(n, 0);
   for (int v : constrained) {
     if (v < 0 || v >= n)
-      throw Error(ErrorCode::IndexOutOfRange, "constrained vertex " + std::to_string(v) + " is out of range (the mesh has " +
-                                                  std::to_string(n) + " vertices)");
+      throw Error(ErrorCode::IndexOutOfRange, "constrained vertex " + std::to_string(v) +
+                                                  " is out of range (the mesh has " + std::to_string(n) + " vertices)");
     if (seen[v]) throw Error(ErrorCode::DuplicateConstraint, "vertex " + std::to_string(v) + " is constrained twice");
     seen[v] = 1;
   }
 }
 
-BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
-                           const std::vector<int>& constrained, Weights weights,
-                           const std::vector<double>& stiffness, const InfillGraph* infill) {
-  check_bind_input(rest, triangles, constrained);
-  if (!stiffness.empty() && stiffness.size() != static_cast<size_t>(rest.rows()))
-    throw Error(ErrorCode::InvalidInput, "expected one stiffness per vertex (" + std::to_string(rest.rows()) +
-                                             "), got " + std::to_string(stiffness.size()));
+namespace {
+
+void check_stiffness(const std::vector<double>& stiffness, Eigen::Index vertices) {
+  if (!stiffness.empty() && stiffness.size() != static_cast<size_t>(vertices))
+    throw Error(ErrorCode::InvalidInput, "expected one stiffness per vertex (" + std::to_string(vertices) + "), got " +
+                                             std::to_string(stiffness.size()));
   for (size_t v = 0; v < stiffness.size(); ++v)
     if (!(stiffness[v] > 0) || !std::isfinite(stiffness[v]))
       throw Error(ErrorCode::InvalidInput,
                   "the stiffness of vertex " + std::to_string(v) + " must be a finite number > 0");
-  BoundMesh m;
-  m.input_n = static_cast<int>(rest.rows());
-  m.n = m.input_n + (infill ? static_cast<int>(infill->nodes.rows()) : 0);
-  m.report.vertices = m.input_n;
-  m.report.triangles = static_cast<int>(triangles.rows());
+}
 
-  const EdgeGroups groups = edge_groups(rest, triangles, weights);
-  m.report.degenerate_triangles = groups.degenerate_triangles;
-  m.report.nonmanifold_edges = groups.nonmanifold_edges;
-  // Volume::Infill: the lattice nodes follow the mesh's vertices (input index #V + k), with their edges.
-  if (infill) {
-    m.report.infill_nodes = static_cast<int>(infill->nodes.rows());
-    m.report.infill_cells = infill->cells;
-  }
+// The vertices' components over the edges: component[v] = -1 for a vertex in no edge.
+struct Components {
+  std::vector<int> of_vertex;
+  int count = 0;
+};
 
-  // Internal numbering for locality of the per-vertex loops. Its breadth-first
-  // passes also find the components over the edges (the non-degenerate
-  // triangles and the lattice): component[v] = -1 for a vertex in no edge.
-  const std::vector<WeightedEdge> no_lattice;
-  const EdgeGraph graph = edge_graph(m.n, groups, infill ? infill->edges : no_lattice);
-  std::vector<int> component;
-  int components = 0;
-  m.order = locality_order(graph, component, components);
+// Internal numbering for locality of the per-vertex loops (order, rank) and
+// the rest positions and stiffness in that order. Its breadth-first passes
+// also find the components over the edges (the non-degenerate triangles and
+// the lattice).
+Components number_vertices(BoundMesh& m, const EdgeGraph& graph, const Eigen::Ref<const Points>& rest,
+                           const std::vector<double>& stiffness, const InfillGraph* infill) {
+  Components components;
+  m.order = locality_order(graph, components.of_vertex, components.count);
   m.rank.assign(m.n, 0);
   for (int k = 0; k < m.n; ++k) m.rank[m.order[k]] = k;
   m.rest.resize(m.n, 3);
@@ -114,10 +107,16 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   if (!stiffness.empty())
     for (int k = 0; k < m.n; ++k)
       if (m.order[k] < m.input_n) m.stiffness[k] = stiffness[m.order[k]];
+  return components;
+}
 
-  // Components without a constraint and isolated vertices are kept at rest
-  // (counted by the mesh's own vertices).
-  std::vector<char> component_constrained(components, 0), component_counted(components, 0);
+// The constrained slots (the user's, then the vertices kept at rest:
+// components without a constraint and isolated vertices, counted by the
+// mesh's own vertices) and the free rows. Returns each vertex's slot, -1 when free.
+std::vector<int> split_free_and_constrained(BoundMesh& m, const std::vector<int>& constrained,
+                                            const Components& components) {
+  const std::vector<int>& component = components.of_vertex;
+  std::vector<char> component_constrained(components.count, 0), component_counted(components.count, 0);
   for (int v : constrained)
     if (component[v] >= 0) component_constrained[component[v]] = 1;
   for (int v = 0; v < m.input_n; ++v) {
@@ -155,9 +154,13 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
     }
   std::vector<int> slot_of(m.n, -1);
   for (size_t s = 0; s < m.constrained.size(); ++s) slot_of[m.constrained[s]] = static_cast<int>(s);
+  return slot_of;
+}
 
-  // Spokes in CSR order: both directions of every edge with a nonzero weight,
-  // vertex by vertex in the graph's order of neighbours.
+// Spokes in CSR order: both directions of every edge with a nonzero weight,
+// vertex by vertex in the graph's order of neighbours; with each vertex's rest
+// spoke energy and G_i.
+void build_spokes(BoundMesh& m, const EdgeGraph& graph) {
   std::vector<int> spoke_count(m.n, 0);  // input index: one pass in the graph's own order
   for (int v = 0; v < m.n; ++v)
     for (int q = graph.begin[v]; q < graph.begin[v + 1]; ++q) spoke_count[v] += graph.weight[q] != 0;
@@ -188,10 +191,12 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
     m.rest_spoke_energy[i] = energy;
     for (int d = 0; d < 3; ++d) m.g_sum[3 * i + d] = g_sum[d];
   }
+}
 
-  // Free block of L (L_ii = sum_j w~_ij, L_ij = -w~_ij with w~_ij = w_ij (s_i + s_j) / 2,
-  // the stiffness-weighted edge), assembled column by column (it is symmetric),
-  // and its coupling to constrained vertices.
+// Free block of L (L_ii = sum_j w~_ij, L_ij = -w~_ij with w~_ij = w_ij (s_i + s_j) / 2,
+// the stiffness-weighted edge), assembled column by column (it is symmetric),
+// and its coupling to constrained vertices. `stiff`: a stiffness was given.
+void assemble_free_laplacian(BoundMesh& m, const std::vector<int>& slot_of, bool stiff, const InfillGraph* infill) {
   const int nf = static_cast<int>(m.free_vertices.size());
   const double lattice_scale = infill ? infill->preconditioner_scale : 1.0;
   // Written straight into the matrix's storage, sized for at most one entry per spoke plus the diagonal.
@@ -205,7 +210,6 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   prefault(values, sizeof(double) * capacity);
   // Without stiffness (all 1) the factor (s_i + s_j) / 2 is exactly 1, and
   // only a lattice has lattice edges: both are skipped when they cannot apply.
-  const bool stiff = !stiffness.empty();
   int p = 0;
   outer[0] = 0;
   for (int r = 0; r < nf; ++r) {
@@ -226,6 +230,35 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
     outer[r + 1] = p;
   }
   m.laplacian_ff.resizeNonZeros(p);  // no reallocation: only the count shrinks
+}
+
+}  // namespace
+
+BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
+                           const std::vector<int>& constrained, Weights weights, const std::vector<double>& stiffness,
+                           const InfillGraph* infill) {
+  check_bind_input(rest, triangles, constrained);
+  check_stiffness(stiffness, rest.rows());
+  BoundMesh m;
+  m.input_n = static_cast<int>(rest.rows());
+  m.n = m.input_n + (infill ? static_cast<int>(infill->nodes.rows()) : 0);
+  m.report.vertices = m.input_n;
+  m.report.triangles = static_cast<int>(triangles.rows());
+
+  const EdgeGroups groups = edge_groups(rest, triangles, weights);
+  m.report.degenerate_triangles = groups.degenerate_triangles;
+  m.report.nonmanifold_edges = groups.nonmanifold_edges;
+  // Volume::Infill: the lattice nodes follow the mesh's vertices (input index #V + k), with their edges.
+  if (infill) {
+    m.report.infill_nodes = static_cast<int>(infill->nodes.rows());
+    m.report.infill_cells = infill->cells;
+  }
+  const std::vector<WeightedEdge> no_lattice;
+  const EdgeGraph graph = edge_graph(m.n, groups, infill ? infill->edges : no_lattice);
+  const Components components = number_vertices(m, graph, rest, stiffness, infill);
+  const std::vector<int> slot_of = split_free_and_constrained(m, constrained, components);
+  build_spokes(m, graph);
+  assemble_free_laplacian(m, slot_of, !stiffness.empty(), infill);
   return m;
 }
 

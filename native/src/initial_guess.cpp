@@ -48,7 +48,8 @@ void DifferentialGuess::prepare(const BoundMesh& m, const Triangles& triangles) 
   m_constrained_.resize(m.n, static_cast<Eigen::Index>(m.constrained.size()));
   m_constrained_.setFromTriplets(constrained_entries.begin(), constrained_entries.end());
 
-  Eigen::Matrix<double, Eigen::Dynamic, 3> rest_free(m.free_vertices.size(), 3), rest_constrained(m.constrained.size(), 3);
+  Eigen::Matrix<double, Eigen::Dynamic, 3> rest_free(m.free_vertices.size(), 3),
+      rest_constrained(m.constrained.size(), 3);
   for (size_t r = 0; r < m.free_vertices.size(); ++r) rest_free.row(r) = m.rest.row(m.free_vertices[r]);
   for (size_t s = 0; s < m.constrained.size(); ++s) rest_constrained.row(s) = m.rest.row(m.constrained[s]);
   delta_ = m_free_ * rest_free + m_constrained_ * rest_constrained;

@@ -25,9 +25,12 @@ Method parse_method(const std::string& name) {
 
 std::string to_string(Method m) {
   switch (m) {
-    case Method::QuasiNewton: return "quasi-newton";
-    case Method::LocalGlobal: return "local-global";
-    case Method::Anderson: return "anderson";
+    case Method::QuasiNewton:
+      return "quasi-newton";
+    case Method::LocalGlobal:
+      return "local-global";
+    case Method::Anderson:
+      return "anderson";
   }
   return "?";
 }
@@ -43,19 +46,26 @@ InitialGuess parse_initial_guess(const std::string& name) {
 
 std::string to_string(Weights w) {
   switch (w) {
-    case Weights::Cotan: return "cotan";
-    case Weights::CotanClamped: return "cotan-clamped";
-    case Weights::Uniform: return "uniform";
+    case Weights::Cotan:
+      return "cotan";
+    case Weights::CotanClamped:
+      return "cotan-clamped";
+    case Weights::Uniform:
+      return "uniform";
   }
   return "?";
 }
 
 std::string to_string(InitialGuess g) {
   switch (g) {
-    case InitialGuess::Differential: return "differential";
-    case InitialGuess::Naive: return "naive";
-    case InitialGuess::Laplacian: return "laplacian";
-    case InitialGuess::WarmStart: return "warm";
+    case InitialGuess::Differential:
+      return "differential";
+    case InitialGuess::Naive:
+      return "naive";
+    case InitialGuess::Laplacian:
+      return "laplacian";
+    case InitialGuess::WarmStart:
+      return "warm";
   }
   return "?";
 }
@@ -69,9 +79,12 @@ Volume parse_volume(const std::string& name) {
 
 std::string to_string(Volume v) {
   switch (v) {
-    case Volume::None: return "none";
-    case Volume::Global: return "global";
-    case Volume::Infill: return "infill";
+    case Volume::None:
+      return "none";
+    case Volume::Global:
+      return "global";
+    case Volume::Infill:
+      return "infill";
   }
   return "?";
 }
@@ -84,8 +97,10 @@ Contact parse_contact(const std::string& name) {
 
 std::string to_string(Contact c) {
   switch (c) {
-    case Contact::None: return "none";
-    case Contact::Self: return "self";
+    case Contact::None:
+      return "none";
+    case Contact::Self:
+      return "self";
   }
   return "?";
 }
@@ -105,6 +120,12 @@ std::string joined(const std::vector<std::string>& names) {
   for (std::size_t k = 0; k < names.size(); ++k)
     out += (k == 0 ? "" : k + 1 == names.size() ? " or " : ", ") + names[k];
   return out;
+}
+
+bool is_choice_of(const OptionSpec& spec, const std::string& name) {
+  for (const std::string& c : spec.choices)
+    if (c == name) return true;
+  return false;
 }
 
 constexpr double kUnbounded = std::numeric_limits<double>::infinity();
@@ -209,25 +230,48 @@ void check_options(const Options& options) {
   for (const OptionSpec& o : option_specs()) {
     if (o.kind == OptionKind::Choice) {
       const std::string value = o.get_choice(options);
-      bool known = false;
-      for (const std::string& c : o.choices) known = known || c == value;
-      if (!known) throw Error(ErrorCode::InvalidInput, std::string(o.name) + " must be " + option_limits(o) + ", not " + value);
+      if (!is_choice_of(o, value))
+        throw Error(ErrorCode::InvalidInput, std::string(o.name) + " must be " + option_limits(o) + ", not " + value);
       continue;
     }
     const double v = o.get_number(options);
     if (!(std::isfinite(v) && v >= o.min && v <= o.max))
       throw Error(ErrorCode::InvalidInput, std::string(o.name) + " must be " + option_limits(o) + ", got " + shown(v));
   }
-  // Anderson's extrapolated points are not checked against the volume terms.
-  if (options.volume != Volume::None && options.method == Method::Anderson)
-    throw Error(ErrorCode::InvalidInput, "volume " + to_string(options.volume) +
-                                             " works with the quasi-newton and local-global methods, not anderson "
-                                             "(its extrapolated points are not checked against the volume terms)");
-  // Anderson's extrapolated points skip the collision check that keeps the guarantee.
-  if (options.contact != Contact::None && options.method == Method::Anderson)
+  if (const std::optional<OptionConflict> conflict = method_conflict(options))
+    throw Error(ErrorCode::InvalidInput, std::string(conflict->option) + " " + conflict->value +
+                                             " works with the quasi-newton and local-global methods, not anderson (" +
+                                             conflict->reason + ")");
+}
+
+void set_option(Options& options, const OptionSpec& spec, const std::string& choice) {
+  Options changed = options;
+  spec.set_choice(changed, choice);  // throws for a name it does not know
+  if (!is_choice_of(spec, choice))
     throw Error(ErrorCode::InvalidInput,
-                "contact self works with the quasi-newton and local-global methods, not anderson (its extrapolated "
-                "points skip the collision check that keeps parts of the surface from crossing)");
+                std::string(spec.name) + " must be " + option_limits(spec) + ", not " + choice);
+  options = changed;
+}
+
+void set_option(Options& options, const OptionSpec& spec, double number, const std::string& as_given) {
+  // Checked before it is stored: an integer beyond the option's range must not wrap.
+  const bool whole = spec.kind != OptionKind::Integer || number == std::floor(number);
+  if (!(std::isfinite(number) && number >= spec.min && number <= spec.max && whole))
+    throw Error(ErrorCode::InvalidInput,
+                std::string(spec.name) + " must be " + option_limits(spec) + ", got " + as_given);
+  spec.set_number(options, number);
+}
+
+std::optional<OptionConflict> method_conflict(const Options& options) {
+  if (options.method != Method::Anderson) return std::nullopt;
+  if (options.volume != Volume::None)
+    return OptionConflict{"volume", to_string(options.volume),
+                          "its extrapolated points are not checked against the volume terms"};
+  if (options.contact != Contact::None)
+    return OptionConflict{"contact", to_string(options.contact),
+                          "its extrapolated points skip the collision check that keeps parts of the surface from "
+                          "crossing"};
+  return std::nullopt;
 }
 
 }  // namespace arap

@@ -12,7 +12,7 @@
 #include <random>
 #include <vector>
 
-#include "arap/procedural.h"
+#include "arap/tools/procedural.h"
 #include "linalg/dense_kernels.h"
 #include "linalg/spd_solve.h"
 #include "linalg/supernodal_cholesky.h"

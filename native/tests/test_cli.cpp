@@ -14,11 +14,11 @@
 #include <vector>
 
 #include "arap/errors.h"
-#include "arap/options.h"
 #include "arap/io/mesh_io.h"
 #include "arap/io/polygons.h"
-#include "arap/procedural.h"
 #include "arap/io/scenario.h"
+#include "arap/options.h"
+#include "arap/tools/procedural.h"
 #include "cli_fixture.h"
 
 namespace {

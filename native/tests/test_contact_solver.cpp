@@ -17,8 +17,8 @@
 
 #include "arap/errors.h"
 #include "arap/io/shape_measures.h"
-#include "arap/procedural.h"
 #include "arap/solver.h"
+#include "arap/tools/procedural.h"
 #include "contact/primitives.h"
 #include "contact/self_contact.h"
 #include "gradient_check.h"
@@ -581,7 +581,8 @@ TEST(ContactPairList, AKeptListSeesWhatAFreshOneSees) {
     const double scale = (k % 17 == 0 ? 3.0 : 0.2) * edge;
     for (Eigen::Index v = 0; v < P.rows(); ++v) {
       const double h = s.rest(v, 2) / size;
-      next.row(v) += Eigen::RowVector3d(0.02 * h * h, 0.0, -0.01 * h) + scale * Eigen::RowVector3d(step(random), step(random), step(random));
+      next.row(v) += Eigen::RowVector3d(0.02 * h * h, 0.0, -0.01 * h) +
+                     scale * Eigen::RowVector3d(step(random), step(random), step(random));
     }
     arap::contact::SelfContact fresh;
     fresh.bind(s.rest / size, s.triangles, 1.0);
@@ -747,7 +748,8 @@ TEST(ContactPairList, AShorterStepAlongACheckedMoveIsNotCheckedAgain) {
   EXPECT_GT(stopped.fraction, 0.0);
   EXPECT_LT(stopped.fraction, move.fraction);
   EXPECT_EQ(std::get<0>(fresh_check(along(stopped.fraction))).fraction, 1.0);
-  // Past the safe share, and off the line by a thousandth of an edge: checked in full, stopped as a fresh check stops them.
+  // Past the safe share, and off the line by a thousandth of an edge: checked in full, stopped as a fresh check stops
+  // them.
   Points past = along(std::min(1.0, 1.05 * move.fraction));
   Points off = along(0.9 * move.fraction);
   off.row(s.triangles(0, 0)) += Eigen::RowVector3d(1e-3 * edge, 0, 0);

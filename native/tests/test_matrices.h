@@ -6,7 +6,7 @@
 #include <random>
 #include <vector>
 
-#include "arap/procedural.h"
+#include "arap/tools/procedural.h"
 
 namespace arap_test {
 

@@ -14,8 +14,8 @@
 #include <vector>
 
 #include "arap/errors.h"
-#include "arap/procedural.h"
 #include "arap/solver.h"
+#include "arap/tools/procedural.h"
 #include "runtime/memory_headroom.h"
 #include "sanitizer_build.h"
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <vector>
 
-#include "arap/solver.h"
+#include "arap/types.h"
 
 namespace arap_test {
 

@@ -12,7 +12,7 @@
 #include <set>
 #include <vector>
 
-#include "arap/procedural.h"
+#include "arap/tools/procedural.h"
 #include "linalg/nested_dissection.h"
 #include "linalg/spd_solve.h"
 #include "test_matrices.h"

@@ -8,7 +8,7 @@
 #include <utility>
 
 #include "arap/errors.h"
-#include "arap/procedural.h"
+#include "arap/tools/procedural.h"
 
 namespace {
 

@@ -147,7 +147,8 @@ TEST(QuasiNewton, EmptyHistoryStepIsTheLocalGlobalStep) {
   // each method from the same start lands on the same positions.
   const BentTube t;
   arap::Solver plain, quasi_newton;
-  plain.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 1, 0, arap::Method::LocalGlobal));
+  plain.bind(t.mesh.V, t.mesh.F, t.constrained,
+             options_with(arap::InitialGuess::Naive, 1, 0, arap::Method::LocalGlobal));
   quasi_newton.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 1));
   const auto p = plain.solve(t.targets), q = quasi_newton.solve(t.targets);
   EXPECT_LT((quasi_newton.positions() - plain.positions()).cwiseAbs().maxCoeff(), 1e-9);
@@ -352,7 +353,8 @@ TEST(Solver, VeryLargeMeshesMatchTheTextbook) {
   const LongTube t(500, 410, 60.0, 0, 6.0);
   ASSERT_GE(static_cast<long>(t.mesh.V.rows() - t.constrained.size()), arap::kDissectionRows);
   arap::Solver solver;
-  solver.bind(t.mesh.V, t.mesh.F, t.constrained, options_with(arap::InitialGuess::Naive, 2, 0, arap::Method::LocalGlobal));
+  solver.bind(t.mesh.V, t.mesh.F, t.constrained,
+              options_with(arap::InitialGuess::Naive, 2, 0, arap::Method::LocalGlobal));
   const auto stats = solver.solve(t.targets);
   expect_matches_textbook(t.mesh, t.constrained, t.targets, solver, stats, 2);
 }
@@ -450,7 +452,7 @@ TEST(Solver, AndersonAccelerationStaysMonotoneAndConvergesFaster) {
 
 }  // namespace
 
-#include "arap/quality.h"
+#include "arap/tools/quality.h"
 
 namespace {
 

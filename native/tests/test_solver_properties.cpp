@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "arap/procedural.h"
 #include "arap/solver.h"
+#include "arap/tools/procedural.h"
 #include "gradient_check.h"
 
 namespace {

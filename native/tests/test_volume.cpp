@@ -11,9 +11,9 @@
 
 #include "arap/errors.h"
 #include "arap/io/mesh_io.h"
-#include "arap/procedural.h"
 #include "arap/io/shape_measures.h"
 #include "arap/solver.h"
+#include "arap/tools/procedural.h"
 #include "cli_fixture.h"
 
 namespace {
@@ -341,7 +341,8 @@ TEST_F(Cli, VolumeGlobalKeepsTheVolumeInTheWrittenFile) {
   const TriMesh bar = make_bar_files();
   const std::string setup = "bar.obj --fixed fixed.txt --handle handle.txt --translate 2,0,-1 -q ";
   for (const std::string mode : {"none", "global", "infill"}) {
-    const arap_test::Result r = run(setup + "--volume " + mode + " --output " + mode + ".off --report " + mode + ".json");
+    const arap_test::Result r =
+        run(setup + "--volume " + mode + " --output " + mode + ".off --report " + mode + ".json");
     ASSERT_EQ(r.code, 0) << r.err;
     EXPECT_TRUE(r.err.empty()) << r.err;
     EXPECT_NE(slurp(path(mode + ".json")).find("\"volume\": \"" + mode + "\""), std::string::npos);

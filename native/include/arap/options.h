@@ -4,6 +4,7 @@
 // settings against OPTIONS (same defaults, limits within these).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -101,8 +102,29 @@ const OptionSpec& option_spec(const std::string& name);
 // "a finite number >= 0", "quasi-newton, local-global or anderson".
 std::string option_limits(const OptionSpec& spec);
 // Throws Error(InvalidInput), naming the option and its limits, unless every
-// option is within them (and cold_start is not WarmStart).
+// option is within them (and cold_start is not WarmStart), or naming the
+// method_conflict() when there is one.
 void check_options(const Options& options);
+
+// Sets one option to the choice called `choice` (a Choice option) or to
+// `number` (an Integer or Real one) when the value is within the option's
+// limits; otherwise changes nothing and throws Error(InvalidInput) naming the
+// option, its limits and the value (a number as its user wrote it: `as_given`).
+// The command line and the Python module set options through these.
+void set_option(Options& options, const OptionSpec& spec, const std::string& choice);
+void set_option(Options& options, const OptionSpec& spec, double number, const std::string& as_given);
+
+// Two settings that cannot be combined: `option` ("volume" or "contact") set to
+// `value` works with the quasi-newton and local-global methods, not anderson,
+// for `reason`.
+struct OptionConflict {
+  const char* option;
+  std::string value;
+  const char* reason;
+};
+// The first conflict among `options`, if any: check_options() refuses it, the
+// command line names it by its flags.
+std::optional<OptionConflict> method_conflict(const Options& options);
 
 // Parse / print the names used on the command line and in Python ("cotan-clamped").
 Weights parse_weights(const std::string& name);

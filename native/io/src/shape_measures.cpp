@@ -127,7 +127,8 @@ double signed_volume(const Eigen::Ref<const Points>& positions, const Eigen::Ref
                      const std::vector<int>& which) {
   double six_v = 0;
   for (int f : which)
-    six_v += row(positions, triangles(f, 0)).dot(row(positions, triangles(f, 1)).cross(row(positions, triangles(f, 2))));
+    six_v +=
+        row(positions, triangles(f, 0)).dot(row(positions, triangles(f, 1)).cross(row(positions, triangles(f, 2))));
   return six_v / 6.0;
 }
 

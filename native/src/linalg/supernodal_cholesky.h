@@ -60,7 +60,8 @@ std::vector<int> postorder_within_parts(const std::vector<int>& parent, const st
 // couples, then their separator) and threads > 1 the halves are factored side
 // by side; the result is the same bit for bit. Returns false (L cleared) if A
 // is not positive definite.
-bool supernodal_cholesky(const Eigen::SparseMatrix<double>& A, const std::vector<int>& parent, const std::vector<int>& count,
-                         const std::vector<int>& bounds, SparseFactor& L, int threads = 1);
+bool supernodal_cholesky(const Eigen::SparseMatrix<double>& A, const std::vector<int>& parent,
+                         const std::vector<int>& count, const std::vector<int>& bounds, SparseFactor& L,
+                         int threads = 1);
 
 }  // namespace arap

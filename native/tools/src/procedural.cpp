@@ -1,4 +1,4 @@
-#include "arap/procedural.h"
+#include "arap/tools/procedural.h"
 
 #include <algorithm>
 #include <array>

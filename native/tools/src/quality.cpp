@@ -1,4 +1,4 @@
-#include "arap/quality.h"
+#include "arap/tools/quality.h"
 
 #include <cmath>
 
