@@ -43,8 +43,10 @@ TEST(ContactRelativeMotion, TheBoundHoldsAnywhereOnTheMove) {
     const double noise = trial % 3 == 0 ? 1.0 : 0.05;
     for (int v = 0; v < strip.n; ++v) {
       reference.row(v) << v * 0.1, std::sin(v * 0.3), 0.0;
-      P0.row(v) = reference.row(v) + drift0 * (1 + 0.01 * v) + noise * Eigen::RowVector3d(normal(random), normal(random), normal(random));
-      P1.row(v) = reference.row(v) + drift1 * (1 - 0.02 * v) + noise * Eigen::RowVector3d(normal(random), normal(random), normal(random));
+      P0.row(v) = reference.row(v) + drift0 * (1 + 0.01 * v) +
+                  noise * Eigen::RowVector3d(normal(random), normal(random), normal(random));
+      P1.row(v) = reference.row(v) + drift1 * (1 - 0.02 * v) +
+                  noise * Eigen::RowVector3d(normal(random), normal(random), normal(random));
     }
     // Room enough: the bound itself is under test.
     motion.set_reference(reference.data(), strip.triangles.data(), triangle_count, 1e6, 0.0);

@@ -214,7 +214,7 @@ std::vector<Hostile> hostile_files() {
       {"count_mismatch.stl", stl_bad},
       {"truncated.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0"},
       {"unsupported.xyz", "0 0 0\n"},
-      // Issue 14: numbers OpenMesh's float parsers cannot hold (it hung, clamped or misread them).
+      // Numbers OpenMesh's float parsers cannot hold (they hung, clamped or misread them) are refused.
       {"version_1e40.ply", "ply\nformat ascii 1e40\n" + ply_head.substr(21) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"},
       {"version_1e300.ply", "ply\nformat ascii 1e300\n" + ply_head.substr(21) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"},
       {"version_2.ply", "ply\nformat ascii 2.0\n" + ply_head.substr(21) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"},

@@ -227,7 +227,8 @@ void SelfContact::make_clusters(int vertex_count) {
 void SelfContact::build_tree(const Points& rest) {
   std::vector<Eigen::Vector3d> centroid(triangles_.rows());
   for (Eigen::Index f = 0; f < triangles_.rows(); ++f)
-    centroid[f] = (rest.row(triangles_(f, 0)) + rest.row(triangles_(f, 1)) + rest.row(triangles_(f, 2))).transpose() / 3;
+    centroid[f] =
+        (rest.row(triangles_(f, 0)) + rest.row(triangles_(f, 1)) + rest.row(triangles_(f, 2))).transpose() / 3;
   leaf_triangles_.resize(triangles_.rows());
   std::iota(leaf_triangles_.begin(), leaf_triangles_.end(), 0);
   nodes_.reserve(2 * triangles_.rows() / kLeafSize + 2);
@@ -424,7 +425,8 @@ SelfContact::Step SelfContact::evaluate(const double* P0, const double* P1, List
   for (int v : surface_vertices_) longest = std::max(longest, (row(P1, v) - row(P0, v)).squaredNorm());
   longest = std::sqrt(longest);
   const double reach = 0.5 * margin_;
-  const int pieces = !(longest > reach) ? 1 : static_cast<int>(std::min<double>(kMostPieces, std::ceil(longest / reach)));
+  const int pieces =
+      !(longest > reach) ? 1 : static_cast<int>(std::min<double>(kMostPieces, std::ceil(longest / reach)));
   if (pieces == 1) {
     sweep(P0, P1, true, list_at, step);
     remember_checked_move(P0, P1, step.fraction);

@@ -26,7 +26,8 @@ void LatticeBulk::bind(const BoundMesh& m, const InfillGraph& lattice, double ga
     }
     if (!spans) continue;
     const double* P = m.rest.data();
-    const Eigen::Vector3d x = at(P, node.plus[0]) - at(P, node.minus[0]), y = at(P, node.plus[1]) - at(P, node.minus[1]),
+    const Eigen::Vector3d x = at(P, node.plus[0]) - at(P, node.minus[0]),
+                          y = at(P, node.plus[1]) - at(P, node.minus[1]),
                           z = at(P, node.plus[2]) - at(P, node.minus[2]);
     node.rest = x.dot(y.cross(z));
     if (!(node.rest > 0)) continue;

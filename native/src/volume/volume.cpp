@@ -188,7 +188,8 @@ void VolumeConstraint::set_normal(const double* n, const double* u) {
   for (size_t r = 0; r < row_component_.size(); ++r) {
     const int c = row_component_[r];
     if (c >= 0)
-      longest_u_[c] = std::max(longest_u_[c], u[3 * r] * u[3 * r] + u[3 * r + 1] * u[3 * r + 1] + u[3 * r + 2] * u[3 * r + 2]);
+      longest_u_[c] =
+          std::max(longest_u_[c], u[3 * r] * u[3 * r] + u[3 * r + 1] * u[3 * r + 1] + u[3 * r + 2] * u[3 * r + 2]);
   }
   for (double& l : longest_u_) l = std::sqrt(l);
 }

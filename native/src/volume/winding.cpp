@@ -50,7 +50,8 @@ WindingNumber::WindingNumber(const Eigen::Ref<const Points>& positions, const Ei
     const Range r = stack.back();
     stack.pop_back();
     Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = -lo;
-    for (int k = r.first; k < r.first + r.count; ++k) lo = lo.cwiseMin(items[k].centroid), hi = hi.cwiseMax(items[k].centroid);
+    for (int k = r.first; k < r.first + r.count; ++k)
+      lo = lo.cwiseMin(items[k].centroid), hi = hi.cwiseMax(items[k].centroid);
     if (r.count <= kLeafTriangles || r.depth > 48) {
       nodes_[r.node].first = r.first;
       nodes_[r.node].count = r.count;
