@@ -104,9 +104,9 @@ def clear_scene():
         bpy.data.objects.remove(ob)
     for me in list(bpy.data.meshes):
         bpy.data.meshes.remove(me)
-    engine, sessions = addon("engine", "sessions")
+    deform_job, sessions = addon("deform_job", "sessions")
     sessions.stop_all_sessions()
-    engine.clear_cache()
+    deform_job.clear_cache()
 
 
 def add_grid(x=12, y=4, size=2.0, name="Grid"):

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """ARAP Deform: pose a mesh as-rigidly-as-possible with handle empties.
 
-This file only registers. See api.py for scripting; engine.py (Deform),
+This file only registers. See api.py for scripting; deform_job.py (Deform),
 live.py (Live), bake.py and auto.py for the jobs, problem.py for what they
 read from Blender, native_loader.py for the native bridge; solver_settings.py,
 properties.py, setup_ops.py, deform_ops.py, live_ops.py, bake_ops.py, ui.py and
@@ -23,7 +23,7 @@ if "bpy" in locals():
     # Script reload (F3 > Reload Scripts): reload submodules in dependency order.
     import importlib
     for _name in ("native_loader", "errors", "temp_files", "properties", "meshio", "constraints", "problem",
-                  "solver_cache", "sessions", "status_overlay", "modal_timers", "engine", "live", "anim_compat",
+                  "solver_cache", "sessions", "status_overlay", "modal_timers", "deform_job", "live", "anim_compat",
                   "api", "bake", "background_bind", "auto", "setup_ops", "deform_ops", "live_ops", "ui", "bake_ops",
                   "saving"):
         if _name in locals():
@@ -43,9 +43,9 @@ def register():
 
 
 def unregister():
-    from . import engine, modal_timers, sessions
+    from . import deform_job, modal_timers, sessions
     sessions.stop_all_sessions()
-    engine.clear_cache()
+    deform_job.clear_cache()
     live_ops.live_status_off()
     for mod in reversed(_modules):
         mod.unregister()

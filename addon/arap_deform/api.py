@@ -43,8 +43,8 @@ import importlib
 import bpy
 import numpy as np
 
-from . import engine, native_loader, problem, solver_cache
-from .engine import DeformResult  # noqa: F401
+from . import deform_job, native_loader, problem, solver_cache
+from .deform_job import DeformResult  # noqa: F401
 from .errors import SessionError, SetupError  # noqa: F401
 from .live import LiveSession  # noqa: F401
 from .native_loader import NativeModuleError  # noqa: F401
@@ -102,7 +102,7 @@ def add_handle(obj, group, empty):
     item = obj.arap.handles.add()
     item.group = group
     item.empty = empty
-    engine.capture_bind(item)
+    deform_job.capture_bind(item)
     obj.arap.active_handle = len(obj.arap.handles) - 1
     return item
 
@@ -135,19 +135,19 @@ def deform(obj, iterations=None, tolerance=None, init=None, scene=None):
     detect empties deleted from it.
     """
     _registered()
-    return engine.deform(obj, scene=scene, iterations=iterations, tolerance=tolerance, init=init)
+    return deform_job.deform(obj, scene=scene, iterations=iterations, tolerance=tolerance, init=init)
 
 
 def set_rest_pose(obj):
     """Take the current shape as rest and the empties' current poses as bind poses."""
     _registered()
-    engine.set_rest_pose(obj)
+    deform_job.set_rest_pose(obj)
 
 
 def reset(obj):
     """Put the rest shape back and capture the empties' bind poses again."""
     _registered()
-    engine.reset(obj)
+    deform_job.reset(obj)
 
 
 def set_auto(obj, enabled=True):
@@ -174,7 +174,7 @@ def start_session(obj, scene=None, iterations=None, write=True):
 def last_result(obj):
     """Energies and timings of the last Deform or bake of `obj` in this session
     (operators included): a DeformResult or BakeResult, or None."""
-    return engine.last_result(obj)
+    return deform_job.last_result(obj)
 
 
 def rest_positions(obj):

@@ -6,7 +6,7 @@ Rest shape (what ARAP keeps as rigid as possible):
 - result in a shape key: the basis (reference) key, never modified here;
 - result in the mesh: the "arap_rest" point attribute, captured from the
   current coordinates the first time the tool writes the mesh and again by
-  "Set Rest Pose" (engine.set_rest_pose()); "Reset to Rest" copies it back.
+  "Set Rest Pose" (deform_job.set_rest_pose()); "Reset to Rest" copies it back.
 """
 
 import time

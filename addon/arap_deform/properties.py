@@ -110,14 +110,14 @@ class ARAP_PG_settings(PropertyGroup):
     iterations: option_int(
         "max_iterations",
         name="Iterations",
-        description="Most solver rounds a Deform may take, a safety cap: it stops once the pose has settled "
+        description="Most iterations a Deform may take, a safety cap: it stops once the pose has settled "
                     "(see Tolerance)",
         **ITERATIONS_RANGE,
     )
     live_iterations: option_int(
         "max_iterations",
         name="Live Iterations",
-        description="Most solver rounds per viewport update while Live runs; each update also stops at the "
+        description="Most iterations per viewport update while Live runs; each update also stops at the "
                     "Live Frame Budget, and Live goes on while nothing moves until the pose has settled",
         default=100, min=1, soft_max=1000,
     )
@@ -181,7 +181,7 @@ class ARAP_PG_settings(PropertyGroup):
     acceleration: option_int(
         "anderson_window",
         name="Acceleration",
-        description="Speeds up settling of the Anderson method by extrapolating from this many past rounds "
+        description="Speeds up settling of the Anderson method by extrapolating from this many past iterations "
                     "(Anderson acceleration). A step is kept only when it improves the pose",
     )
     threads: option_int(

@@ -133,7 +133,7 @@ class SubPanel:
 
 
 class ARAP_PT_solver(SubPanel, bpy.types.Panel):
-    """How the solver works: method, rounds, frame budget, tolerance, weights, acceleration, threads"""
+    """How the solver works: method, iterations, frame budget, tolerance, weights, acceleration, threads"""
     bl_label = "Solver"
 
     @classmethod

@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from . import constraints, meshio, solver_cache
+from . import constraints, handles, meshio, solver_cache
 from .errors import SetupError
 from .native_loader import native
 from .problem import (Problem, bind_warnings, collapsed_handles_warning, contact_warning, solver_options,
@@ -194,14 +194,14 @@ def capture_bind(handle):
     """Take the handle Empty's world matrix now as its bind pose (matrices
     brought up to date first: a script may just have moved the Empty)."""
     sync_matrices()
-    constraints.capture_bind(handle)
+    handles.capture_bind(handle)
 
 
 def capture_all_binds(obj):
     sync_matrices()
     for h in obj.arap.handles:
         if h.empty is not None:
-            constraints.capture_bind(h)
+            handles.capture_bind(h)
 
 
 def clear_cache():
