@@ -43,13 +43,14 @@ import importlib
 import bpy
 import numpy as np
 
-from . import deform_job, native_loader, problem, solver_cache
-from .deform_job import DeformResult  # noqa: F401
+from . import native_loader
+from .solver import deform_job, problem, solver_cache
+from .solver.deform_job import DeformResult  # noqa: F401
 from .errors import SessionError, SetupError  # noqa: F401
-from .live import LiveSession  # noqa: F401
+from .solver.live import LiveSession  # noqa: F401
 from .native_loader import NativeModuleError  # noqa: F401
 # Animation bake (see bake.py): shape keys per frame, or a .pc2 point cache read by a Mesh Cache modifier.
-from .bake import bake_pc2, bake_shape_keys, clear_bake, read_pc2  # noqa: F401
+from .solver.bake import bake_pc2, bake_shape_keys, clear_bake, read_pc2  # noqa: F401
 
 __all__ = ("SetupError", "SessionError", "NativeModuleError", "DeformResult", "LiveSession", "settings",
            "set_fixed", "add_handle", "remove_handle", "create_group", "deform", "bind", "set_rest_pose",
@@ -179,6 +180,6 @@ def last_result(obj):
 
 def rest_positions(obj):
     """The rest shape used by the solver, float64 (n, 3), object-local."""
-    from . import meshio
+    from .solver import meshio
     mode = meshio.resolve_output(obj, obj.arap.output)
     return meshio.rest_coords(obj, mode).astype(np.float64).reshape(-1, 3)

@@ -3,10 +3,10 @@
 result of each object, and the rest and bind poses (Reset to Rest, Set Rest
 Pose). Plain functions, testable in --background.
 
-The other jobs live beside it: native_loader.py (the native module),
-problem.py (settings -> configured solver), solver_cache.py (bound solvers
-reused by Deform), live.py (the Live session), sessions.py (the running
-sessions), errors.py (what the user is told).
+Beside it: problem.py (settings -> configured solver), solver_cache.py (bound
+solvers reused by Deform), live.py (the Live session), sessions.py (the running
+sessions); at the add-on's top native_loader.py (the native module) and
+errors.py (what the user is told).
 """
 
 import time
@@ -14,8 +14,8 @@ import time
 import numpy as np
 
 from . import constraints, handles, meshio, solver_cache
-from .errors import SetupError
-from .native_loader import native
+from ..errors import SetupError
+from ..native_loader import native
 from .problem import (Problem, bind_warnings, collapsed_handles_warning, contact_warning, solver_options,
                       sync_matrices, unconverged_warning)
 

@@ -11,7 +11,10 @@ done, as one undo step).
 
 import bpy
 
-from . import deform_job, errors, modal_timers, sessions, solver_settings, status_overlay
+from .. import errors
+from ..persistence import solver_settings
+from ..solver import deform_job, sessions
+from ..ui import modal_timers, status_overlay
 
 # Input that still reaches the viewport while Deform runs (looking around); the rest waits.
 NAVIGATION = {'MIDDLEMOUSE', 'WHEELUPMOUSE', 'WHEELDOWNMOUSE', 'MOUSEMOVE', 'INBETWEEN_MOUSEMOVE',

@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from .errors import SetupError
+from ..errors import SetupError
 
 REST_ATTRIBUTE = "arap_rest"
 SHAPE_KEY_NAME = "ARAP"

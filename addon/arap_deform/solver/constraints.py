@@ -10,8 +10,9 @@ follow which handle is decided by the core library's rule (gather()).
 import bpy
 import numpy as np
 
-from . import handles, meshio, native_loader, sessions
-from .errors import SetupError  # noqa: F401 - raised here, imported from here by callers
+from . import handles, meshio, sessions
+from .. import native_loader
+from ..errors import SetupError  # noqa: F401 - raised here, imported from here by callers
 
 
 def empty_is_alive(empty, scene):

@@ -62,7 +62,7 @@ class ARAP_PG_handle(PropertyGroup):
 
 
 def _auto_changed(settings, context):
-    from . import auto  # the handlers' module (imports the native bridge)
+    from ..auto import auto  # the handlers' module (imports the native bridge)
     obj = settings.id_data
     if settings.auto:
         settings.auto_status = ""
@@ -75,7 +75,7 @@ def _bind_changed(settings, context):
     """Auto mode poses with a new setting fixed at bind (Volume, Self Contact) at once: its solver is bound
     again."""
     if settings.auto:
-        from . import auto
+        from ..auto import auto
         auto.forget(settings.id_data)
         auto.update_scene(context.scene)
 

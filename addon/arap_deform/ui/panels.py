@@ -7,7 +7,9 @@ import textwrap
 
 import bpy
 
-from . import auto, problem, sessions, solver_settings
+from ..auto import auto
+from ..persistence import solver_settings
+from ..solver import problem, sessions
 
 
 class ARAP_UL_handles(bpy.types.UIList):

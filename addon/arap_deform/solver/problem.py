@@ -11,10 +11,10 @@ import bpy
 import numpy as np
 
 from . import constraints, dependency_loops, handles, meshio
-from .errors import SetupError
-from .native_loader import native
+from ..errors import SetupError
+from ..native_loader import native
 # Blender enum items -> the native module's option values (declared with the items).
-from .solver_settings import CONTACT_NAMES, INIT_NAMES, METHOD_NAMES, VOLUME_NAMES, WEIGHT_NAMES
+from ..persistence.solver_settings import CONTACT_NAMES, INIT_NAMES, METHOD_NAMES, VOLUME_NAMES, WEIGHT_NAMES
 
 
 def bind_options(settings):

@@ -9,7 +9,7 @@ Object-local coordinates, homogeneous 4x4 matrices:
 
 import numpy as np
 
-from .errors import SetupError
+from ..errors import SetupError
 
 
 def matrix_to_numpy(m):

@@ -44,9 +44,10 @@ import time
 import bpy
 import numpy as np
 
-from . import anim_compat, constraints, deform_job, meshio, problem, sessions, temp_files
-from .errors import SetupError
-from .native_loader import native
+from . import anim_compat, constraints, deform_job, meshio, problem, sessions
+from ..persistence import temp_files
+from ..errors import SetupError
+from ..native_loader import native
 
 KEY_PREFIX = "ARAP_f"
 MODIFIER_NAME = "ARAP Bake"
