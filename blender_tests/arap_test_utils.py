@@ -16,14 +16,33 @@ ADDON_MODULE = os.environ.get("ARAP_ADDON_MODULE", "arap_deform")
 
 
 def addon(*names):
-    """The loaded add-on's submodules by name, under the name Blender loaded it
-    with (ADDON_MODULE): `api = addon("api")`, `api, bake = addon("api", "bake")`;
-    addon() is the package. The add-on is only in sys.modules under that name, so
-    `import arap_deform` fails when Blender loaded it as an extension."""
+    """The loaded add-on's modules by name, under the name Blender loaded it
+    with (ADDON_MODULE): `api = addon("api")`, `api, bake = addon("api", "bake")`
+    (a module of a subpackage by its own name: "bake" is solver/bake.py, see
+    module_path()); addon() is the package. The add-on is only in sys.modules
+    under that name, so `import arap_deform` fails when Blender loaded it as an
+    extension."""
     if not names:
         return importlib.import_module(ADDON_MODULE)
-    modules = tuple(importlib.import_module(ADDON_MODULE + "." + name) for name in names)
+    modules = tuple(importlib.import_module(ADDON_MODULE + "." + module_path(name)) for name in names)
     return modules[0] if len(names) == 1 else modules
+
+
+def module_path(name):
+    """The dotted path in the add-on of its module `name`: the file name.py at its top or in one of its
+    subpackages ("bake" -> "solver.bake"); a name with a dot is the path already."""
+    if "." in name:
+        return name
+    folder = os.path.dirname(importlib.import_module(ADDON_MODULE).__file__)
+    found = [name] if os.path.isfile(os.path.join(folder, name + ".py")) else []
+    for sub in sorted(os.listdir(folder)):
+        if os.path.isfile(os.path.join(folder, sub, "__init__.py")) and \
+                os.path.isfile(os.path.join(folder, sub, name + ".py")):
+            found.append(sub + "." + name)
+    if len(found) != 1:
+        raise ImportError("the add-on has %s module named %s: %s" % ("no" if not found else "more than one",
+                                                                    name, found))
+    return found[0]
 
 
 def modules_under_other_names():
@@ -92,9 +111,9 @@ def clear_scene():
         bpy.data.objects.remove(ob)
     for me in list(bpy.data.meshes):
         bpy.data.meshes.remove(me)
-    engine, sessions = addon("engine", "sessions")
+    deform_job, sessions = addon("deform_job", "sessions")
     sessions.stop_all_sessions()
-    engine.clear_cache()
+    deform_job.clear_cache()
 
 
 def add_grid(x=12, y=4, size=2.0, name="Grid"):

@@ -229,10 +229,10 @@ class PanelAndRedo(unittest.TestCase):
         self.obj, self.empty, self.fixed, self.top = U.bar_with_handle()
 
     def test_an_active_handle_empty_keeps_the_mesh_panel(self):
-        sessions, ui = U.addon("sessions", "ui")
+        sessions, panels = U.addon("sessions", "panels")
         bpy.context.view_layer.objects.active = self.empty
         self.assertIs(sessions.target_mesh(bpy.context), self.obj)
-        self.assertTrue(shown(ui.ARAP_PT_solver, bpy.context))
+        self.assertTrue(shown(panels.ARAP_PT_solver, bpy.context))
         # ... and the panel's buttons act on that mesh.
         rest = U.coords(self.obj)
         self.empty.location.x += 0.5
@@ -242,34 +242,34 @@ class PanelAndRedo(unittest.TestCase):
         bpy.context.scene.collection.objects.link(other)
         bpy.context.view_layer.objects.active = other
         self.assertIsNone(sessions.target_mesh(bpy.context))
-        self.assertFalse(ui.ARAP_PT_solver.poll(bpy.context))
+        self.assertFalse(panels.ARAP_PT_solver.poll(bpy.context))
 
     def test_the_tab_is_there_without_a_mesh(self):
         # Right after installing, with no mesh (or none active): the ARAP tab shows
         # one line saying what to do; the sub-panels stay hidden.
-        ui, bake_ops = U.addon("ui", "bake_ops")
+        panels, bake_ops = U.addon("panels", "bake_ops")
         for active in (None, U.add_empty("Unrelated")):
             bpy.context.view_layer.objects.active = active
-            self.assertTrue(shown(ui.ARAP_PT_main, bpy.context))
-            self.assertFalse(shown(ui.ARAP_PT_solver, bpy.context))
+            self.assertTrue(shown(panels.ARAP_PT_main, bpy.context))
+            self.assertFalse(shown(panels.ARAP_PT_solver, bpy.context))
             self.assertFalse(shown(bake_ops.ARAP_PT_bake, bpy.context))
             panel = StandInPanel()
-            ui.ARAP_PT_main.draw(panel, bpy.context)
+            panels.ARAP_PT_main.draw(panel, bpy.context)
             self.assertEqual(panel.layout.calls, [("label", (), {"text": "Select a mesh object to pose it",
                                                                   "icon": 'INFO'})])
         # With the mesh active, the same draw shows its settings, not the line.
         bpy.context.view_layer.objects.active = self.obj
-        self.assertTrue(shown(ui.ARAP_PT_solver, bpy.context))
+        self.assertTrue(shown(panels.ARAP_PT_solver, bpy.context))
         panel = StandInPanel()
-        ui.ARAP_PT_main.draw(panel, bpy.context)
+        panels.ARAP_PT_main.draw(panel, bpy.context)
         texts = [kw.get("text") for _name, _args, kw in panel.layout.all_calls()]
         self.assertNotIn("Select a mesh object to pose it", texts)
         self.assertIn("Fixed Vertices", texts)
 
     def test_solver_settings_in_a_collapsed_sub_panel_with_plain_tooltips(self):
-        properties, ui = U.addon("properties", "ui")
-        self.assertEqual(ui.ARAP_PT_solver.bl_parent_id, "ARAP_PT_main")
-        self.assertIn('DEFAULT_CLOSED', ui.ARAP_PT_solver.bl_options)
+        properties, panels = U.addon("properties", "panels")
+        self.assertEqual(panels.ARAP_PT_solver.bl_parent_id, "ARAP_PT_main")
+        self.assertIn('DEFAULT_CLOSED', panels.ARAP_PT_solver.bl_options)
         for name in ("iterations", "live_iterations", "tolerance", "weights", "init", "acceleration", "threads"):
             prop = properties.ARAP_PG_settings.bl_rna.properties[name]
             self.assertNotIn("README", prop.description, name)

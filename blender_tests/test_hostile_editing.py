@@ -11,8 +11,8 @@ from mathutils import Matrix
 
 import arap_test_utils as U
 
-api, auto, bake, bake_ops, deform_ops, engine, errors, meshio = U.addon(
-    "api", "auto", "bake", "bake_ops", "deform_ops", "engine", "errors", "meshio")
+api, auto, bake, bake_ops, deform_ops, deform_job, errors, meshio = U.addon(
+    "api", "auto", "bake", "bake_ops", "deform_ops", "deform_job", "errors", "meshio")
 SetupError = errors.SetupError
 
 
@@ -40,7 +40,7 @@ class DeformWhileItSolves(unittest.TestCase):
         move(self.empty, 0.6)
         self.before = U.raw_coords(self.obj).copy()
         self.obj.arap.tolerance = 0.0     # the worker keeps solving until stopped
-        self.job = engine.DeformJob(self.obj, bpy.context.scene, iterations=100000)
+        self.job = deform_job.DeformJob(self.obj, bpy.context.scene, iterations=100000)
         self.job.start()
 
     def tearDown(self):
@@ -73,7 +73,7 @@ class DeformWhileItSolves(unittest.TestCase):
     def test_vertices_renumbered_with_the_same_count(self):
         # The counts are compared every poll, each corner's vertex once the solve is done, before writing.
         self.job.stop()
-        self.job = engine.DeformJob(self.obj, bpy.context.scene, iterations=5)
+        self.job = deform_job.DeformJob(self.obj, bpy.context.scene, iterations=5)
         self.job.start()
         renumber_vertices(self.obj)
         renumbered = U.raw_coords(self.obj).copy()
@@ -97,7 +97,7 @@ class DeformWhileItSolves(unittest.TestCase):
     def test_untouched_it_finishes_as_before(self):
         self.job.stop()
         self.obj.arap.tolerance = 1e-4
-        job = engine.DeformJob(self.obj, bpy.context.scene)
+        job = deform_job.DeformJob(self.obj, bpy.context.scene)
         job.start()
         while (result := job.poll()) is None:
             pass

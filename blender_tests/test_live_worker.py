@@ -1,5 +1,5 @@
 # Live and Deform as the viewport runs them: the solves on the worker's native
-# thread (LiveSession.update(), engine.DeformJob.start()/poll()), Blender's
+# thread (LiveSession.update(), deform_job.DeformJob.start()/poll()), Blender's
 # thread only reading the Empties and writing finished poses.
 import time
 import unittest
@@ -9,7 +9,8 @@ import numpy as np
 from mathutils import Matrix
 
 import arap_test_utils as U
-api, engine, live_ops, native_loader, sessions = U.addon("api", "engine", "live_ops", "native_loader", "sessions")
+api, deform_job, live_ops, native_loader, sessions = U.addon(
+    "api", "deform_job", "live_ops", "native_loader", "sessions")
 
 GIVE_UP_S = 120.0
 
@@ -154,7 +155,7 @@ class DeformOnTheWorker(unittest.TestCase):
         here = api.deform(self.obj)
         posed = U.raw_coords(self.obj).copy()
         set_coords(self.obj, before)
-        job = engine.DeformJob(self.obj, bpy.context.scene)
+        job = deform_job.DeformJob(self.obj, bpy.context.scene)
         job.start()
         result = self.poll_until_done(job)
         np.testing.assert_array_equal(U.raw_coords(self.obj), posed)
@@ -162,7 +163,7 @@ class DeformOnTheWorker(unittest.TestCase):
         # Stopped: nothing written, the solver usable again.
         set_coords(self.obj, before)
         self.obj.arap.tolerance = 0.0
-        job = engine.DeformJob(self.obj, bpy.context.scene, iterations=1000)
+        job = deform_job.DeformJob(self.obj, bpy.context.scene, iterations=1000)
         job.start()
         job.stop()
         self.assertTrue(np.array_equal(U.raw_coords(self.obj), before))
@@ -176,7 +177,7 @@ class DeformOnTheWorker(unittest.TestCase):
         self.obj, self.empty, _f, _t = U.bar_with_handle(vertices=64, cuts=40)
         move(self.empty, dx=0.6)
         self.obj.arap.method, self.obj.arap.tolerance = 'LOCAL_GLOBAL', 0.0
-        job = engine.DeformJob(self.obj, bpy.context.scene, iterations=10000)
+        job = deform_job.DeformJob(self.obj, bpy.context.scene, iterations=10000)
         job.start()
         seen = set()
         end = time.monotonic() + GIVE_UP_S

@@ -72,7 +72,8 @@ fi
 src=/srv/$(basename "$here")
 stage=$dist/stage/arap_deform
 mkdir -p "$stage"
-cp "$here"/addon/arap_deform/*.py "$here"/addon/arap_deform/blender_manifest.toml "$stage/"
+(cd "$here"/addon/arap_deform && find . -name __pycache__ -prune -o \( -name '*.py' -o -name blender_manifest.toml \) \
+   -print0 | xargs -0 cp --parents -t "$stage/")
 {
   echo "| module | built with | needs glibc | links |"
   echo "|---|---|---|---|"

@@ -93,7 +93,7 @@ def addon_temp_files(addon_dir):
     """The add-on's temp_files.py (plain Python, no bpy): the launcher looks for what a dead worker
     left by the rule the workers name their temporary files with."""
     spec = importlib.util.spec_from_file_location("arap_batch_addon_temp_files",
-                                                  os.path.join(addon_dir, "temp_files.py"))
+                                                  os.path.join(addon_dir, "persistence", "temp_files.py"))
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module

@@ -1,12 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """ARAP Deform: pose a mesh as-rigidly-as-possible with handle empties.
 
-This file only registers. See api.py for scripting; engine.py (Deform),
-live.py (Live), bake.py and auto.py for the jobs, problem.py for what they
-read from Blender, native_loader.py for the native bridge; solver_settings.py,
-properties.py, setup_ops.py, deform_ops.py, live_ops.py, bake_ops.py, ui.py and
-status_overlay.py for the Blender side; saving.py for what a .blend saved while
-posing holds.
+This file only registers. See api.py for scripting and native_loader.py for
+the native bridge; solver/ for the jobs (deform_job.py: Deform, live.py: Live,
+bake.py) and what they read from Blender (problem.py, handles.py); auto/ for
+Auto mode; operators/, ui/ and persistence/ (properties.py: the settings kept
+in the .blend, saving.py: what a .blend saved while posing holds) for the
+Blender side.
 """
 
 bl_info = {
@@ -20,21 +20,25 @@ bl_info = {
 }
 
 if "bpy" in locals():
-    # Script reload (F3 > Reload Scripts): reload submodules in dependency order.
-    import importlib
-    for _name in ("native_loader", "errors", "temp_files", "properties", "meshio", "constraints", "problem",
-                  "solver_cache", "sessions", "status_overlay", "modal_timers", "engine", "live", "anim_compat",
-                  "api", "bake", "background_bind", "auto", "setup_ops", "deform_ops", "live_ops", "ui", "bake_ops",
-                  "saving"):
-        if _name in locals():
-            importlib.reload(locals()[_name])
+    # Script reload (F3 > Reload Scripts): Blender has unregistered the add-on and runs this file again. Forget
+    # every loaded submodule but the native module (loaded once per process), so that the imports below load
+    # each one afresh, after the modules it imports.
+    import sys
+    for _name in [name for name in sys.modules if name.startswith(__name__ + ".")]:
+        if _name != __name__ + "._arap_native":
+            del sys.modules[_name]
+            globals().pop(_name[len(__name__) + 1:], None)   # the package's attribute would outlive the module
 
 import bpy  # noqa: E402,F401 - its presence in locals() marks a reload
 
-from . import properties, setup_ops, deform_ops, live_ops, ui, bake_ops, auto, api, status_overlay, saving  # noqa: E402
+from . import api  # noqa: E402,F401 - scripts reach it as <add-on>.api
+from .auto import auto  # noqa: E402
+from .operators import bake_ops, deform_ops, live_ops, setup_ops  # noqa: E402
+from .persistence import properties, saving  # noqa: E402
+from .ui import panels, status_overlay  # noqa: E402
 
-# Order matters: bake_ops' panel is a child of ui's ARAP_PT_main; auto adds Blender handlers.
-_modules = (properties, setup_ops, deform_ops, live_ops, ui, bake_ops, auto, status_overlay, saving)
+# Order matters: bake_ops' panel is a child of panels' ARAP_PT_main; auto adds Blender handlers.
+_modules = (properties, setup_ops, deform_ops, live_ops, panels, bake_ops, auto, status_overlay, saving)
 
 
 def register():
@@ -43,9 +47,10 @@ def register():
 
 
 def unregister():
-    from . import engine, modal_timers, sessions
+    from .solver import deform_job, sessions
+    from .ui import modal_timers
     sessions.stop_all_sessions()
-    engine.clear_cache()
+    deform_job.clear_cache()
     live_ops.live_status_off()
     for mod in reversed(_modules):
         mod.unregister()

@@ -43,13 +43,14 @@ import importlib
 import bpy
 import numpy as np
 
-from . import engine, native_loader, problem, solver_cache
-from .engine import DeformResult  # noqa: F401
+from . import native_loader
+from .solver import deform_job, problem, solver_cache
+from .solver.deform_job import DeformResult  # noqa: F401
 from .errors import SessionError, SetupError  # noqa: F401
-from .live import LiveSession  # noqa: F401
+from .solver.live import LiveSession  # noqa: F401
 from .native_loader import NativeModuleError  # noqa: F401
 # Animation bake (see bake.py): shape keys per frame, or a .pc2 point cache read by a Mesh Cache modifier.
-from .bake import bake_pc2, bake_shape_keys, clear_bake, read_pc2  # noqa: F401
+from .solver.bake import bake_pc2, bake_shape_keys, clear_bake, read_pc2  # noqa: F401
 
 __all__ = ("SetupError", "SessionError", "NativeModuleError", "DeformResult", "LiveSession", "settings",
            "set_fixed", "add_handle", "remove_handle", "create_group", "deform", "bind", "set_rest_pose",
@@ -102,7 +103,7 @@ def add_handle(obj, group, empty):
     item = obj.arap.handles.add()
     item.group = group
     item.empty = empty
-    engine.capture_bind(item)
+    deform_job.capture_bind(item)
     obj.arap.active_handle = len(obj.arap.handles) - 1
     return item
 
@@ -135,19 +136,19 @@ def deform(obj, iterations=None, tolerance=None, init=None, scene=None):
     detect empties deleted from it.
     """
     _registered()
-    return engine.deform(obj, scene=scene, iterations=iterations, tolerance=tolerance, init=init)
+    return deform_job.deform(obj, scene=scene, iterations=iterations, tolerance=tolerance, init=init)
 
 
 def set_rest_pose(obj):
     """Take the current shape as rest and the empties' current poses as bind poses."""
     _registered()
-    engine.set_rest_pose(obj)
+    deform_job.set_rest_pose(obj)
 
 
 def reset(obj):
     """Put the rest shape back and capture the empties' bind poses again."""
     _registered()
-    engine.reset(obj)
+    deform_job.reset(obj)
 
 
 def set_auto(obj, enabled=True):
@@ -174,11 +175,11 @@ def start_session(obj, scene=None, iterations=None, write=True):
 def last_result(obj):
     """Energies and timings of the last Deform or bake of `obj` in this session
     (operators included): a DeformResult or BakeResult, or None."""
-    return engine.last_result(obj)
+    return deform_job.last_result(obj)
 
 
 def rest_positions(obj):
     """The rest shape used by the solver, float64 (n, 3), object-local."""
-    from . import meshio
+    from .solver import meshio
     mode = meshio.resolve_output(obj, obj.arap.output)
     return meshio.rest_coords(obj, mode).astype(np.float64).reshape(-1, 3)

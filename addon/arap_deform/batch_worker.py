@@ -44,7 +44,7 @@ import traceback
 
 import bpy
 
-from . import temp_files
+from .persistence import temp_files
 
 PREFIX = "@arap-batch "
 
@@ -118,7 +118,8 @@ def _targets(scene, names):
 
 def _pose(obj, job, scene, out_path, written):
     """Deform or bake one object; returns its record. Raises FileFailed."""
-    from . import api, bake, errors
+    from . import api, errors
+    from .solver import bake
     rec = {"name": obj.name}
     try:
         if job.get("bake"):

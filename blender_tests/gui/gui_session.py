@@ -98,7 +98,7 @@ def panel_drawn(_panel, context):
     STATE["panel_drawn"] = True
     STATE["panel_draws"] = STATE.get("panel_draws", 0) + 1
     STATE["panel_active"] = context.active_object.name if context.active_object else None
-    mesh = U.addon("ui").panel_object(context)  # None: the panel shows only its "select a mesh" line
+    mesh = U.addon("panels").panel_object(context)  # None: the panel shows only its "select a mesh" line
     STATE["panel_mesh"] = mesh.name if mesh is not None else None
 
 

@@ -11,7 +11,7 @@ thread touches no bpy data.
 
 import threading
 
-from .problem import solver_options
+from ..solver.problem import solver_options
 
 
 class BackgroundBind:

@@ -3,19 +3,19 @@
 result of each object, and the rest and bind poses (Reset to Rest, Set Rest
 Pose). Plain functions, testable in --background.
 
-The other jobs live beside it: native_loader.py (the native module),
-problem.py (settings -> configured solver), solver_cache.py (bound solvers
-reused by Deform), live.py (the Live session), sessions.py (the running
-sessions), errors.py (what the user is told).
+Beside it: problem.py (settings -> configured solver), solver_cache.py (bound
+solvers reused by Deform), live.py (the Live session), sessions.py (the running
+sessions); at the add-on's top native_loader.py (the native module) and
+errors.py (what the user is told).
 """
 
 import time
 
 import numpy as np
 
-from . import constraints, meshio, solver_cache
-from .errors import SetupError
-from .native_loader import native
+from . import constraints, handles, meshio, solver_cache
+from ..errors import SetupError
+from ..native_loader import native
 from .problem import (Problem, bind_warnings, collapsed_handles_warning, contact_warning, solver_options,
                       sync_matrices, unconverged_warning)
 
@@ -194,14 +194,14 @@ def capture_bind(handle):
     """Take the handle Empty's world matrix now as its bind pose (matrices
     brought up to date first: a script may just have moved the Empty)."""
     sync_matrices()
-    constraints.capture_bind(handle)
+    handles.capture_bind(handle)
 
 
 def capture_all_binds(obj):
     sync_matrices()
     for h in obj.arap.handles:
         if h.empty is not None:
-            constraints.capture_bind(h)
+            handles.capture_bind(h)
 
 
 def clear_cache():

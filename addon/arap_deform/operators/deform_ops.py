@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Deform and the shape it starts from: the Deform operator (one solve from the
-rest shape, engine.DeformJob), Reset to Rest and Set Rest Pose.
+rest shape, deform_job.DeformJob), Reset to Rest and Set Rest Pose.
 
 Deform, from a script or the redo panel, solves in execute(). From the panel,
 a key or F3 it is modal: the solve runs on the worker's thread, the viewport
@@ -11,7 +11,10 @@ done, as one undo step).
 
 import bpy
 
-from . import engine, errors, modal_timers, sessions, solver_settings, status_overlay
+from .. import errors
+from ..persistence import solver_settings
+from ..solver import deform_job, sessions
+from ..ui import modal_timers, status_overlay
 
 # Input that still reaches the viewport while Deform runs (looking around); the rest waits.
 NAVIGATION = {'MIDDLEMOUSE', 'WHEELUPMOUSE', 'WHEELDOWNMOUSE', 'MOUSEMOVE', 'INBETWEEN_MOUSEMOVE',
@@ -29,7 +32,7 @@ class ARAP_OT_deform(bpy.types.Operator):
     # object's settings; defaults and limits are the settings' (solver_settings.py, from the option table).
     iterations: solver_settings.option_int(
         "max_iterations", name="Iterations", **solver_settings.ITERATIONS_RANGE,
-        description="Most solver rounds; it stops earlier once the pose has settled")
+        description="Most iterations; it stops earlier once the pose has settled")
     tolerance: solver_settings.option_float(
         "tolerance", name="Tolerance", **solver_settings.TOLERANCE_STYLE,
         description="Stop when a round improves the pose by less than this fraction")
@@ -56,7 +59,7 @@ class ARAP_OT_deform(bpy.types.Operator):
             # A cap other than the object's setting was set in the redo panel (or by the caller).
             if self.iterations != obj.arap.iterations:
                 source = 'OPERATOR'
-        return engine.DeformJob(obj, context.scene, self.iterations, self.tolerance, self.init,
+        return deform_job.DeformJob(obj, context.scene, self.iterations, self.tolerance, self.init,
                                 iterations_from=source)
 
     def _report_result(self, result):
@@ -150,7 +153,7 @@ def deform_status_lines():
 
 
 class _ApplyToActiveObject:
-    """Mixin: execute() runs `action` (an engine function) on the panel's mesh and reports its errors."""
+    """Mixin: execute() runs `action` (a deform_job function) on the panel's mesh and reports its errors."""
     action = None
 
     def execute(self, context):
@@ -166,7 +169,7 @@ class ARAP_OT_reset(_ApplyToActiveObject, bpy.types.Operator):
     bl_idname = "object.arap_reset"
     bl_label = "Reset to Rest"
     bl_options = {'REGISTER', 'UNDO'}
-    action = staticmethod(engine.reset)
+    action = staticmethod(deform_job.reset)
 
 
 class ARAP_OT_set_rest_pose(_ApplyToActiveObject, bpy.types.Operator):
@@ -174,7 +177,7 @@ class ARAP_OT_set_rest_pose(_ApplyToActiveObject, bpy.types.Operator):
     bl_idname = "object.arap_set_rest_pose"
     bl_label = "Set Rest Pose"
     bl_options = {'REGISTER', 'UNDO'}
-    action = staticmethod(engine.set_rest_pose)
+    action = staticmethod(deform_job.set_rest_pose)
 
 
 classes = (ARAP_OT_deform, ARAP_OT_reset, ARAP_OT_set_rest_pose)

@@ -16,8 +16,8 @@ import numpy as np
 
 from . import constraints, meshio, sessions
 from .dependency_loops import DependencyLoop
-from .errors import SessionError, SetupError
-from .native_loader import native
+from ..errors import SessionError, SetupError
+from ..native_loader import native
 from .problem import Problem, bind_warnings, configured_solver, pose_contact_stop, sync_matrices
 
 

@@ -10,7 +10,8 @@ import numpy as np
 from bpy.props import StringProperty
 from mathutils import Matrix, Vector
 
-from . import api, sessions
+from .. import api
+from ..solver import sessions
 
 
 def _mesh_object(context):

@@ -6,7 +6,7 @@ with these; problem.py turns the enum identifiers into the solver's names."""
 
 from bpy.props import EnumProperty, FloatProperty, IntProperty
 
-from . import native_loader
+from .. import native_loader
 
 # The solver's options take their defaults, limits and choices from the native
 # option table (arap::option_specs(), _arap_native.OPTIONS), read once when the

@@ -6,14 +6,14 @@ Rest shape (what ARAP keeps as rigid as possible):
 - result in a shape key: the basis (reference) key, never modified here;
 - result in the mesh: the "arap_rest" point attribute, captured from the
   current coordinates the first time the tool writes the mesh and again by
-  "Set Rest Pose" (engine.set_rest_pose()); "Reset to Rest" copies it back.
+  "Set Rest Pose" (deform_job.set_rest_pose()); "Reset to Rest" copies it back.
 """
 
 import time
 
 import numpy as np
 
-from .errors import SetupError
+from ..errors import SetupError
 
 REST_ATTRIBUTE = "arap_rest"
 SHAPE_KEY_NAME = "ARAP"

@@ -14,7 +14,8 @@ import traceback
 import bpy
 from bpy.app.handlers import persistent
 
-from . import bake_ops, sessions
+from ..operators import bake_ops
+from ..solver import sessions
 
 
 def _tell(runs, action):

@@ -2,32 +2,17 @@
 """Read an object's ARAP settings into index arrays, check them, and turn
 empty matrices into target positions.
 
-Constraint semantics (object-local coordinates, homogeneous 4x4 matrices):
-    target_local = M_obj^-1 @ M_empty_now @ M_empty_bind^-1 @ M_obj @ rest_local
-Fixed vertices keep their rest position. Which vertices are fixed and which
+Fixed vertices keep their rest position; a handle's vertices move by its
+target transform (handles.py). Which vertices are fixed and which
 follow which handle is decided by the core library's rule (gather()).
 """
 
 import bpy
 import numpy as np
 
-from . import meshio, native_loader, sessions
-from .errors import SetupError  # noqa: F401 - raised here, imported from here by callers
-
-
-def matrix_to_numpy(m):
-    """mathutils.Matrix 4x4 -> float64 (4, 4) (rows are rows)."""
-    return np.array([tuple(row) for row in m], np.float64)
-
-
-def bind_matrix_of(handle):
-    return np.asarray(handle.bind_matrix, np.float64).reshape(4, 4)
-
-
-def capture_bind(handle):
-    """Store the empty's current world matrix as the handle's bind pose."""
-    handle.bind_matrix = matrix_to_numpy(handle.empty.matrix_world).ravel().tolist()
-    handle.has_bind = True
+from . import handles, meshio, sessions
+from .. import native_loader
+from ..errors import SetupError  # noqa: F401 - raised here, imported from here by callers
 
 
 def empty_is_alive(empty, scene):
@@ -41,18 +26,6 @@ def empty_is_alive(empty, scene):
     return scene is None or scene.objects.get(name) == empty
 
 
-def invert(matrix, what):
-    """The inverse of a 4x4 transform; SetupError naming `what` when it has
-    (near) zero scale and so no usable inverse."""
-    try:
-        inverse = np.linalg.inv(matrix)
-    except np.linalg.LinAlgError:
-        inverse = None
-    if inverse is None or not np.all(np.isfinite(inverse)):
-        raise SetupError("%s has zero scale, so its transform cannot be inverted: give it a non-zero scale" % what)
-    return inverse
-
-
 class HandleBlock:
     """Rows [start, stop) of the constrained list follow `empty`."""
 
@@ -62,8 +35,7 @@ class HandleBlock:
         self.empty = empty
         self.start = start
         self.stop = stop
-        self.bind_inv = invert(bind, "The bind pose of handle '%s' (its empty '%s' when the pose was taken; "
-                                     "press Reset to Rest after fixing it)" % (group, empty.name))
+        self.bind_inv = handles.bind_inverse(bind, group, empty.name)
 
 
 class Setup:
@@ -142,12 +114,11 @@ def gather(obj, scene=None):
     chosen = native_loader.native().constraint_set(
         len(obj.data.vertices), members[s.fixed_group] if s.fixed_group else None,
         "the fixed group '%s'" % s.fixed_group, [("handle '%s'" % h.group, members[h.group]) for h in s.handles])
-    handles = []
+    blocks = []
     for index, start, stop in chosen.handles:
         h = s.handles[index]
-        bind = bind_matrix_of(h) if h.has_bind else matrix_to_numpy(h.empty.matrix_world)
-        handles.append(HandleBlock(index, h.group, h.empty, start, stop, bind))
-    return Setup(chosen.constrained, chosen.fixed_count, handles, list(chosen.warnings))
+        blocks.append(HandleBlock(index, h.group, h.empty, start, stop, handles.bind_matrix(h)))
+    return Setup(chosen.constrained, chosen.fixed_count, blocks, list(chosen.warnings))
 
 
 def handle_of(setup, vertex):
@@ -169,22 +140,6 @@ def stiffness_of(obj):
     if s.stiff_group not in obj.vertex_groups:
         raise SetupError("Stiff group '%s' does not exist on '%s'" % (s.stiff_group, obj.name))
     return 1.0 + (s.stiffness - 1.0) * meshio.group_weights(obj, s.stiff_group)
-
-
-def collapsed_handles(setup, empty_matrices, ratio=1e-6):
-    """Groups of the handles whose Empty's volume scale since the bind pose,
-    |det(M_now) / det(M_bind)|, is below `ratio`."""
-    names = []
-    for h, m_now in zip(setup.handles, empty_matrices):
-        if abs(np.linalg.det(m_now[:3, :3]) * np.linalg.det(h.bind_inv[:3, :3])) < ratio:
-            names.append(h.group)
-    return names
-
-
-def handle_transforms(setup, obj_matrix, empty_matrices, obj_name="the posed object"):
-    """Per handle: the object-local 4x4 map M_obj^-1 @ M_now @ M_bind^-1 @ M_obj."""
-    obj_inv = invert(obj_matrix, "'%s'" % obj_name)
-    return [obj_inv @ m_now @ h.bind_inv @ obj_matrix for h, m_now in zip(setup.handles, empty_matrices)]
 
 
 # Farthest a handle may move its vertices, in sizes of the mesh: there float32 coordinates (Blender's) round

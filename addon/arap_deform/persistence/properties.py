@@ -62,7 +62,7 @@ class ARAP_PG_handle(PropertyGroup):
 
 
 def _auto_changed(settings, context):
-    from . import auto  # the handlers' module (imports the native bridge)
+    from ..auto import auto  # the handlers' module (imports the native bridge)
     obj = settings.id_data
     if settings.auto:
         settings.auto_status = ""
@@ -75,7 +75,7 @@ def _bind_changed(settings, context):
     """Auto mode poses with a new setting fixed at bind (Volume, Self Contact) at once: its solver is bound
     again."""
     if settings.auto:
-        from . import auto
+        from ..auto import auto
         auto.forget(settings.id_data)
         auto.update_scene(context.scene)
 
@@ -110,14 +110,14 @@ class ARAP_PG_settings(PropertyGroup):
     iterations: option_int(
         "max_iterations",
         name="Iterations",
-        description="Most solver rounds a Deform may take, a safety cap: it stops once the pose has settled "
+        description="Most iterations a Deform may take, a safety cap: it stops once the pose has settled "
                     "(see Tolerance)",
         **ITERATIONS_RANGE,
     )
     live_iterations: option_int(
         "max_iterations",
         name="Live Iterations",
-        description="Most solver rounds per viewport update while Live runs; each update also stops at the "
+        description="Most iterations per viewport update while Live runs; each update also stops at the "
                     "Live Frame Budget, and Live goes on while nothing moves until the pose has settled",
         default=100, min=1, soft_max=1000,
     )
@@ -181,7 +181,7 @@ class ARAP_PG_settings(PropertyGroup):
     acceleration: option_int(
         "anderson_window",
         name="Acceleration",
-        description="Speeds up settling of the Anderson method by extrapolating from this many past rounds "
+        description="Speeds up settling of the Anderson method by extrapolating from this many past iterations "
                     "(Anderson acceleration). A step is kept only when it improves the pose",
     )
     threads: option_int(

@@ -7,7 +7,9 @@ import textwrap
 
 import bpy
 
-from . import auto, problem, sessions, solver_settings
+from ..auto import auto
+from ..persistence import solver_settings
+from ..solver import problem, sessions
 
 
 class ARAP_UL_handles(bpy.types.UIList):
@@ -133,7 +135,7 @@ class SubPanel:
 
 
 class ARAP_PT_solver(SubPanel, bpy.types.Panel):
-    """How the solver works: method, rounds, frame budget, tolerance, weights, acceleration, threads"""
+    """How the solver works: method, iterations, frame budget, tolerance, weights, acceleration, threads"""
     bl_label = "Solver"
 
     @classmethod

@@ -2,7 +2,7 @@
 """The registry of running Live sessions (live.LiveSession adds and removes
 itself), and which mesh the panel and the operators act on."""
 
-from .errors import SessionError
+from ..errors import SessionError
 
 _sessions = set()
 

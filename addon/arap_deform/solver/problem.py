@@ -10,14 +10,14 @@ import functools
 import bpy
 import numpy as np
 
-from . import constraints, dependency_loops, meshio
-from .errors import SetupError
-from .native_loader import native
+from . import constraints, dependency_loops, handles, meshio
+from ..errors import SetupError
+from ..native_loader import native
 # Blender enum items -> the native module's option values (declared with the items).
-from .solver_settings import CONTACT_NAMES, INIT_NAMES, METHOD_NAMES, VOLUME_NAMES, WEIGHT_NAMES
+from ..persistence.solver_settings import CONTACT_NAMES, INIT_NAMES, METHOD_NAMES, VOLUME_NAMES, WEIGHT_NAMES
 
 
-def volume_options(settings):
+def bind_options(settings):
     """The bind options of the object's Volume and Self Contact settings (native names): what the solver
     keeps besides the surface's rigidity, fixed at bind."""
     return {"volume": VOLUME_NAMES[settings.volume], "infill_resolution": settings.infill_resolution,
@@ -75,7 +75,8 @@ class HandlePose:
         """[M_obj^-1 @ M_now @ M_bind^-1 @ M_obj], one per handle (worked out when first asked for: Live
         reads a pose every tick and needs them only when it moved); SetupError when the object has zero
         scale."""
-        return constraints.handle_transforms(self._setup, self.obj_matrix, self.empty_matrices, self._obj_name)
+        return handles.target_transforms(self.obj_matrix, self.empty_matrices,
+                                         [h.bind_inv for h in self._setup.handles], self._obj_name)
 
 
 class Problem:
@@ -98,13 +99,13 @@ class Problem:
         self._targets = np.empty_like(self.rest_constrained)
         self.weights = WEIGHT_NAMES[s.weights]
         self.stiffness = constraints.stiffness_of(obj)
-        self.volume = volume_options(s)
+        self.bind_options = bind_options(s)
         self.threads = s.threads  # large meshes order and factor in two halves side by side
 
     @property
     def self_contact(self):
         """The surface is kept from passing through itself (Self Contact): a pose may stop short."""
-        return self.volume["contact"] != "none"
+        return self.bind_options["contact"] != "none"
 
     @functools.cached_property
     def size(self):
@@ -131,8 +132,8 @@ class Problem:
         if depsgraph is not None:
             obj = obj.evaluated_get(depsgraph)
             empties = [e.evaluated_get(depsgraph) for e in empties]
-        obj_matrix = constraints.matrix_to_numpy(obj.matrix_world)
-        mats = [constraints.matrix_to_numpy(e.matrix_world) for e in empties]
+        obj_matrix = handles.matrix_to_numpy(obj.matrix_world)
+        mats = [handles.matrix_to_numpy(e.matrix_world) for e in empties]
         return HandlePose(self.setup, obj.name, obj_matrix, mats)
 
     def targets(self, pose):
@@ -146,14 +147,15 @@ class Problem:
 
     def collapsed(self, pose):
         """The groups of the handles whose Empty `pose` scales to almost nothing since its bind pose."""
-        return constraints.collapsed_handles(self.setup, pose.empty_matrices)
+        return [h.group for h, m_now in zip(self.setup.handles, pose.empty_matrices)
+                if handles.collapsed(m_now, h.bind_inv)]
 
     def bind(self):
         """A new native solver bound to this problem (default options but those fixed at bind: the weights,
         the volume terms and self contact; and the threads, which the bind uses too)."""
         solver = native().Solver()
         solver.bind(self.rest64, self.tris, self.setup.constrained, weights=self.weights, stiffness=self.stiffness,
-                    threads=self.threads, **self.volume)
+                    threads=self.threads, **self.bind_options)
         return solver
 
 
@@ -194,9 +196,9 @@ def unconstrained_warning(report):
             % (report["unconstrained_vertices"], n))
 
 
-def volume_warning(report, volume):
+def volume_warning(report, bind_options):
     """Volume Global keeps closed parts only: say which were left alone."""
-    if volume.get("volume") != "global":
+    if bind_options.get("volume") != "global":
         return None
     n = report["volume_open_components"]
     if n == 0:
@@ -219,7 +221,7 @@ def method_warning(settings):
 def bind_warnings(report, problem, settings):
     """What a bind has to tell the user: parts without constraints, open parts Volume Global leaves alone,
     a method replaced for the volume terms or self contact."""
-    found = (unconstrained_warning(report), volume_warning(report, problem.volume), method_warning(settings))
+    found = (unconstrained_warning(report), volume_warning(report, problem.bind_options), method_warning(settings))
     return [w for w in found if w]
 
 

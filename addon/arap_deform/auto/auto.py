@@ -39,11 +39,13 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from . import bake, errors, meshio, problem, sessions, status_overlay
+from .. import errors
+from ..solver import bake, meshio, problem, sessions
+from ..ui import status_overlay
 from .background_bind import BackgroundBind
-from .dependency_loops import DependencyLoop
-from .errors import SetupError
-from .native_loader import native
+from ..solver.dependency_loops import DependencyLoop
+from ..errors import SetupError
+from ..native_loader import native
 
 FRAME_BUDGET_MS = 30.0      # in the viewport, the worker shows a new pose at least this often while it solves
 POLL_S = 1.0 / 60.0         # how often the viewport looks for the worker's newest pose

@@ -7,7 +7,9 @@ never waits for a solve."""
 
 import bpy
 
-from . import errors, live, modal_timers, sessions, status_overlay
+from .. import errors
+from ..solver import live, sessions
+from ..ui import modal_timers, status_overlay
 
 
 def live_status_lines():

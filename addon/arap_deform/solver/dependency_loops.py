@@ -35,7 +35,7 @@ on every update, before anything is solved.
 
 import bpy
 
-from .errors import SetupError
+from ..errors import SetupError
 
 VERTEX_PARENTS = {'VERTEX', 'VERTEX_3'}
 # Drivers on these properties move an object (or its bones): a driver elsewhere (a custom property,

@@ -14,9 +14,11 @@ import time
 import bpy
 from bpy.props import EnumProperty, IntProperty, StringProperty
 
-from . import bake, errors, meshio, modal_timers, sessions, status_overlay, ui
-from .errors import SetupError
-from .native_loader import native
+from .. import errors
+from ..solver import bake, meshio, sessions
+from ..ui import modal_timers, panels, status_overlay
+from ..errors import SetupError
+from ..native_loader import native
 
 TICK_S = 1.0 / 60.0     # the modal's timer
 TICK_SLICE_MS = 8.0     # how long a tick waits for frames the worker solves (Blender's thread is held meanwhile)
@@ -289,7 +291,7 @@ class ARAP_OT_bake_clear(bpy.types.Operator):
         return {'FINISHED'}
 
 
-class ARAP_PT_bake(ui.SubPanel, bpy.types.Panel):
+class ARAP_PT_bake(panels.SubPanel, bpy.types.Panel):
     """Bake the ARAP pose of every frame for playback"""
     bl_label = "Bake Animation"
 

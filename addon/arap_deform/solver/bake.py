@@ -44,9 +44,10 @@ import time
 import bpy
 import numpy as np
 
-from . import anim_compat, constraints, engine, meshio, problem, sessions, temp_files
-from .errors import SetupError
-from .native_loader import native
+from . import anim_compat, constraints, deform_job, meshio, problem, sessions
+from ..persistence import temp_files
+from ..errors import SetupError
+from ..native_loader import native
 
 KEY_PREFIX = "ARAP_f"
 MODIFIER_NAME = "ARAP Bake"
@@ -98,11 +99,6 @@ class BakeResult:
         self.output = None      # 'SHAPE_KEYS' | 'PC2'
         self.path = None
         self.positions = None   # float32 (frames, n, 3), object-local (shape keys; PC2: read_pc2(path))
-
-    def as_dict(self):
-        return {"frames": self.frames, "energies": self.energies, "iterations": self.iterations,
-                "converged": self.converged, "ms": self.ms, "bind_ms": self.bind_ms, "write_ms": self.write_ms,
-                "total_ms": self.total_ms, "output": self.output, "path": self.path, "warnings": self.warnings}
 
     def __repr__(self):
         n = len(self.ms)
@@ -176,10 +172,6 @@ class Baker:
     def last_positions(self):
         """Float32 (n, 3) object-local pose of the frame step() solved last."""
         return self.positions[0 if self.pc2 else max(self.index - 1, 0)]
-
-    @property
-    def current_frame(self):
-        return self.frames[min(self.index, len(self.frames) - 1)]
 
     def _targets(self):
         """The targets of the frame just set: the handles as evaluated there (DependencyLoop when a handle's
@@ -286,7 +278,7 @@ class Baker:
         r.total_ms = (time.perf_counter() - self.started) * 1e3 + r.bind_ms
         r.output, r.path = output, path
         r.positions = None if self.pc2 else self.positions
-        engine.remember_result(self.obj, r)
+        deform_job.remember_result(self.obj, r)
         return r
 
     def write_shape_keys(self):

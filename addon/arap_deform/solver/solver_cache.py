@@ -28,7 +28,7 @@ def bound_solver(obj, problem):
     Its options are the caller's to set."""
     stiff = np.empty(0) if problem.stiffness is None else problem.stiffness
     key = (len(problem.rest64), _digest(problem.rest64, problem.tris, problem.setup.constrained, stiff),
-           problem.weights, tuple(sorted(problem.volume.items())))
+           problem.weights, tuple(sorted(problem.bind_options.items())))
     hit = _cache.get(obj.as_pointer())
     if hit is not None and hit[0] == key:
         return hit[1], 0.0, True

@@ -1,0 +1,2 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The operators: set-up, Deform and the rest poses, Live, the bake."""
