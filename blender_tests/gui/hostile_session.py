@@ -21,6 +21,16 @@ def check(ok, what):
     print("CHECK %s: %s" % ("ok" if ok else "FAILED", what), flush=True)
 
 
+def until(condition, timeout=GIVE_UP_S):
+    """Steps until `condition()` holds (True) or `timeout` seconds pass (False): a loaded machine is slow."""
+    end = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > end:
+            return False
+        yield STEP_S / 5
+    return True
+
+
 def view3d_override():
     win = bpy.context.window_manager.windows[0]
     area = next(a for a in win.screen.areas if a.type == 'VIEW_3D')
@@ -60,7 +70,8 @@ def auto_follows(obj, empty, top, rest_top, when):
     while not auto.status(obj).startswith("settled") and time.monotonic() < end:
         yield STEP_S
     moved = centroid(obj, top) - rest_top
-    check(auto.status(obj).startswith("settled") and obj.arap.auto, "%s: Auto settles (%s)" % (when, auto.status(obj)))
+    check(auto.status(obj).startswith("settled") and obj.arap.auto,
+          "%s: Auto settles (%r; auto %s, %r)" % (when, auto.status(obj), obj.arap.auto, obj.arap.auto_status))
     check(abs(moved[0] - empty.location.x) < 1e-3, "%s: the mesh follows its Empty (top moved by %.4f, the Empty "
           "by %.4f)" % (when, moved[0], empty.location.x))
     obj.arap.auto = False
@@ -81,8 +92,8 @@ def steps():
     check(job is not None and job.progress[0] > 0, "Deform's worker solves (%s)" % (job and job.progress,))
     mesh = obj.data
     bpy.data.objects.remove(obj)
-    yield 1.0
-    check(deform_ops.ARAP_OT_deform.running is None, "the modal ended after the object was deleted")
+    check((yield from until(lambda: deform_ops.ARAP_OT_deform.running is None)),
+          "the modal ended after the object was deleted")
     check(deform_ops.deform_status_lines() == [], "its lines left the viewport")
     check(job.worker is None and not job.solver.busy, "its worker stopped")
     bpy.data.meshes.remove(mesh)
@@ -96,9 +107,9 @@ def steps():
     obj.arap.auto = True
     empty.location.x += 0.1
     bpy.context.view_layer.update()
-    yield 1.0
+    solving = yield from until(lambda: obj.as_pointer() in auto._posers and auto._timer_on)
     poser = auto._posers.get(obj.as_pointer())
-    check(poser is not None and auto._timer_on, "Auto is solving on the worker (%s)" % auto.status(obj))
+    check(solving, "Auto is solving on the worker (%s)" % auto.status(obj))
     U.disable_addon()
     yield 1.0
     check(poser.worker is None, "disabled: Auto's worker stopped")
@@ -153,8 +164,7 @@ def steps():
     rest = U.raw_coords(obj).copy()
     check(invoke(bpy.ops.object.arap_live) == {'RUNNING_MODAL'}, "Live runs")
     empty.location.x = 0.5
-    yield 1.0
-    check(abs(U.raw_coords(obj) - rest).max() > 0.3, "Live poses the mesh")
+    check((yield from until(lambda: abs(U.raw_coords(obj) - rest).max() > 0.3)), "Live poses the mesh")
     timers = U.addon("modal_timers")
     U.disable_addon()
     yield 0.5
@@ -163,12 +173,10 @@ def steps():
     check(U.enable_addon() is not None, "enabled again")
     check(invoke(bpy.ops.object.arap_live) == {'RUNNING_MODAL'}, "Live runs again")
     empty.location.x = 0.5
-    yield 1.0
-    check(abs(U.raw_coords(obj) - rest).max() > 0.3, "and poses the mesh")
+    check((yield from until(lambda: abs(U.raw_coords(obj) - rest).max() > 0.3)), "and poses the mesh")
     with bpy.context.temp_override(**view3d_override()):
         bpy.ops.object.arap_live_cancel()
-    yield 0.5
-    check((U.raw_coords(obj) == rest).all(), "Live cancelled from the panel's button")
+    check((yield from until(lambda: (U.raw_coords(obj) == rest).all())), "Live cancelled from the panel's button")
     U.clear_scene()
 
     # 6. Reload Scripts (F3) while Auto's worker solves: Auto goes on in the reloaded add-on.
@@ -178,9 +186,11 @@ def steps():
     empty.location.x += 0.1
     bpy.context.view_layer.update()
     yield 0.5
+    before = U.addon("auto")
     with bpy.context.temp_override(**view3d_override()):
         bpy.ops.script.reload()
-    yield 1.0
+    # Blender reloads from its event loop, after the operator returns: wait for the new module.
+    check((yield from until(lambda: U.addon("auto") is not before)), "the add-on was reloaded")
     yield from auto_follows(obj, empty, top, rest_top, "after Reload Scripts")
 
 
