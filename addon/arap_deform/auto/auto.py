@@ -441,11 +441,12 @@ def forget(obj=None):
         _drop(uid)
 
 
-def _drop_deleted():
+def _drop_deleted(visited):
     """Stop and drop the state of objects deleted, or taken out of every scene, since the last update (no
-    update would poll their workers again)."""
+    update would poll their workers again). `visited`: the objects this update posed, which are in its scene
+    (users_scene walks every scene: asked only of the others)."""
     for uid, poser in list(_posers.items()):
-        if not poser.alive() or not poser.obj.users_scene:
+        if not poser.alive() or (uid not in visited and not poser.obj.users_scene):
             _drop(uid)
 
 
@@ -509,8 +510,9 @@ def update_scene(scene, depsgraph=None):
     settled = True
     _busy = True
     try:
-        _drop_deleted()
-        for obj in _one_poser_per_mesh(_settings_objects(scene)):
+        objects = _one_poser_per_mesh(_settings_objects(scene))
+        _drop_deleted({obj.as_pointer() for obj in objects})
+        for obj in objects:
             if sessions.session_for(obj) is not None:
                 continue  # Live owns the object while it runs
             try:
