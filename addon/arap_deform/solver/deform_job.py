@@ -63,7 +63,7 @@ class DeformJob:
         sync_matrices()
         self.problem = Problem(obj, scene)
         self.name = obj.name    # a deleted object's own name can no longer be read
-        self.topology = meshio.Topology(obj.data)
+        self.topology = None    # the mesh's connectivity when the worker started (run() needs none)
         self.pose = self.problem.pose(obj, scene)
         self.targets = self.problem.targets(self.pose)
         self.solver, self.bind_ms, self.cached = solver_cache.bound_solver(obj, self.problem)
@@ -81,6 +81,7 @@ class DeformJob:
 
     def start(self):
         """Solve on the worker's thread; poll() until it returns the DeformResult."""
+        self.topology = meshio.Topology(self.obj.data)
         self.worker = native().SolveWorker(self.solver, max_iterations=self.max_iterations)
         self.worker.post(self.targets)
 
