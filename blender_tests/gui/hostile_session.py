@@ -87,9 +87,8 @@ def steps():
     obj, empty, _top = slow_bar("Doomed", cuts=150)
     check(invoke(bpy.ops.object.arap_deform) == {'RUNNING_MODAL'}, "Deform runs modal")
     job = deform_ops.ARAP_OT_deform.running
-    while job.progress[0] == 0:
-        yield 0.05
-    check(job is not None and job.progress[0] > 0, "Deform's worker solves (%s)" % (job and job.progress,))
+    solving = yield from until(lambda: job.progress[0] > 0 or job.worker is None)
+    check(solving and job.worker is not None, "Deform's worker solves (%s)" % (job.progress,))
     mesh = obj.data
     bpy.data.objects.remove(obj)
     check((yield from until(lambda: deform_ops.ARAP_OT_deform.running is None)),
@@ -124,8 +123,8 @@ def steps():
     rest = U.raw_coords(obj).copy()
     check(invoke(bpy.ops.object.arap_deform) == {'RUNNING_MODAL'}, "Deform runs modal")
     job = U.addon("deform_ops").ARAP_OT_deform.running
-    while job.progress[0] == 0:
-        yield 0.05
+    solving = yield from until(lambda: job.progress[0] > 0 or job.worker is None)
+    check(solving and job.worker is not None, "Deform's worker solves (%s)" % (job.progress,))
     U.disable_addon()
     yield 1.0
     check(job.worker is None and not job.solver.busy, "disabled: Deform's worker stopped")
