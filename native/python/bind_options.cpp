@@ -91,4 +91,21 @@ void bind_option_table(py::module_& m) {
   m.attr("OPTIONS") = specs;
 }
 
+// method_conflicts(**options): the options (the others at their defaults) that cannot be combined with the method,
+// [(option, value, reason)], by arap::method_conflicts(); each option's own limits are checked as configure() does.
+void bind_method_conflicts(py::module_& m) {
+  m.def(
+      "method_conflicts",
+      [](const py::kwargs& kwargs) {
+        arap::Options o;
+        for (const auto& [key, value] : kwargs) set_option_from_python(o, py::cast<std::string>(key), value);
+        py::list found;
+        for (const arap::OptionConflict& c : arap::method_conflicts(o))
+          found.append(py::make_tuple(c.option, c.value, c.reason));
+        return found;
+      },
+      "The options (by name; the others at their defaults) that cannot be combined with the method: a list of "
+      "(option, value, reason), empty when they all can.");
+}
+
 }  // namespace arap_python

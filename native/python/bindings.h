@@ -29,6 +29,8 @@ void bind_worker(py::module_& m);
 // One Solver property per option, and the OPTIONS table (bind_options.cpp).
 void bind_option_properties(py::class_<arap::Solver>& solver);
 void bind_option_table(py::module_& m);
+// method_conflicts(): the settings the method cannot be combined with, by the core's rule (bind_options.cpp).
+void bind_method_conflicts(py::module_& m);
 
 // `options` with `kwargs` (option names) applied, checked as a whole: the
 // solver keeps its options unless every one is valid (bind_options.cpp).

@@ -22,4 +22,5 @@ PYBIND11_MODULE(_arap_native, m) {
   bind_worker(m);
   bind_option_properties(solver);
   bind_option_table(m);
+  bind_method_conflicts(m);
 }

@@ -262,16 +262,23 @@ void set_option(Options& options, const OptionSpec& spec, double number, const s
   spec.set_number(options, number);
 }
 
-std::optional<OptionConflict> method_conflict(const Options& options) {
-  if (options.method != Method::Anderson) return std::nullopt;
+std::vector<OptionConflict> method_conflicts(const Options& options) {
+  std::vector<OptionConflict> found;
+  if (options.method != Method::Anderson) return found;
   if (options.volume != Volume::None)
-    return OptionConflict{"volume", to_string(options.volume),
-                          "its extrapolated points are not checked against the volume terms"};
+    found.push_back(
+        {"volume", to_string(options.volume), "its extrapolated points are not checked against the volume terms"});
   if (options.contact != Contact::None)
-    return OptionConflict{"contact", to_string(options.contact),
-                          "its extrapolated points skip the collision check that keeps parts of the surface from "
-                          "crossing"};
-  return std::nullopt;
+    found.push_back({"contact", to_string(options.contact),
+                     "its extrapolated points skip the collision check that keeps parts of the surface from "
+                     "crossing"});
+  return found;
+}
+
+std::optional<OptionConflict> method_conflict(const Options& options) {
+  const std::vector<OptionConflict> found = method_conflicts(options);
+  if (found.empty()) return std::nullopt;
+  return found.front();
 }
 
 }  // namespace arap

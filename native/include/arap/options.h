@@ -122,8 +122,11 @@ struct OptionConflict {
   std::string value;
   const char* reason;
 };
-// The first conflict among `options`, if any: check_options() refuses it, the
-// command line names it by its flags.
+// Every conflict among `options` (volume's before contact's; none unless the
+// method is anderson): the add-on names them and solves with quasi-newton.
+std::vector<OptionConflict> method_conflicts(const Options& options);
+// The first of them, if any: check_options() refuses it, the command line
+// names it by its flags.
 std::optional<OptionConflict> method_conflict(const Options& options);
 
 // Parse / print the names used on the command line and in Python ("cotan-clamped").

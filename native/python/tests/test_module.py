@@ -90,6 +90,21 @@ class Options(unittest.TestCase):
         with self.assertRaises(arap.ArapError):   # Anderson's extrapolation ignores the volume terms
             solver.configure(method="anderson")
 
+    def test_method_conflicts_names_what_anderson_cannot_be_combined_with(self):
+        self.assertEqual(arap.method_conflicts(), [])
+        self.assertEqual(arap.method_conflicts(method="anderson"), [])
+        self.assertEqual(arap.method_conflicts(method="quasi-newton", volume="global", contact="self"), [])
+        both = arap.method_conflicts(method="anderson", volume="infill", infill_resolution=4, contact="self")
+        self.assertEqual([(option, value) for option, value, _ in both], [("volume", "infill"), ("contact", "self")])
+        self.assertIn("volume terms", both[0][2])
+        self.assertIn("collision check", both[1][2])
+        # The first is the one a solver refuses with.
+        solver = arap.Solver()
+        with self.assertRaisesRegex(arap.ArapError, "volume infill .* not anderson"):
+            solver.configure(method="anderson", volume="infill")
+        with self.assertRaises(arap.ArapError):   # each option's limits, as configure() checks them
+            arap.method_conflicts(method="gradient-descent")
+
     def test_self_contact_is_fixed_at_bind_and_reports_how_far_the_handles_came(self):
         rest, tris = strip()
         solver = arap.Solver()
