@@ -24,15 +24,15 @@ def bind_options(settings):
             "contact": CONTACT_NAMES[settings.self_contact]}
 
 
+# How the panel names a native option's value that Anderson cannot be combined with.
+_UNCHECKED_NAMES = {"volume": lambda value: "Volume %s" % value.title(), "contact": lambda _value: "Self Contact"}
+
+
 def anderson_unchecked(settings):
-    """The settings Anderson's extrapolated points are not checked against, as the panel names them:
-    Volume (its terms) and Self Contact (its collision check). Empty when there is none."""
-    found = []
-    if settings.volume != 'NONE':
-        found.append("Volume %s" % settings.volume.title())
-    if settings.self_contact:
-        found.append("Self Contact")
-    return found
+    """The settings Anderson's extrapolated points are not checked against (the native module's rule), as the
+    panel names them: Volume (its terms) and Self Contact (its collision check). Empty when there is none."""
+    conflicts = native().method_conflicts(method=METHOD_NAMES['ANDERSON'], **bind_options(settings))
+    return [_UNCHECKED_NAMES[option](value) for option, value, _reason in conflicts]
 
 
 def solver_method(settings):
