@@ -4,6 +4,7 @@ built for this add-on and this Python: the only importer of the native module.
 """
 
 import glob
+import importlib
 import os
 import re
 import sys
@@ -37,7 +38,7 @@ def native():
                "-DARAP_PYTHON_VERSION=%s && cmake --build build, then install build/arap_deform.zip (README, "
                "'Blender versions')" % (py, py))
     try:
-        from . import _arap_native as mod
+        mod = importlib.import_module(__package__ + "._arap_native")   # the compiled file beside this one
     except ImportError as exc:
         # One file per Python ABI may sit here (_arap_native.cpython-311-x86_64-linux-gnu.so, ...);
         # Python picks the one whose tag matches its own.
