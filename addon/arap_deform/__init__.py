@@ -4,8 +4,8 @@
 This file only registers. See api.py for scripting and native_loader.py for
 the native bridge; solver/ for the jobs (deform_job.py: Deform, live.py: Live,
 bake.py) and what they read from Blender (problem.py, handles.py); auto/ for
-Auto mode; operators/, ui/ and persistence/ (properties.py: the settings kept
-in the .blend, saving.py: what a .blend saved while posing holds) for the
+Auto mode; operators/ (saving.py: what a .blend saved while posing holds), ui/
+and persistence/ (properties.py: the settings kept in the .blend) for the
 Blender side.
 """
 
@@ -33,8 +33,8 @@ import bpy  # noqa: E402,F401 - its presence in locals() marks a reload
 
 from . import api  # noqa: E402,F401 - scripts reach it as <add-on>.api
 from .auto import auto  # noqa: E402
-from .operators import bake_ops, deform_ops, live_ops, setup_ops  # noqa: E402
-from .persistence import properties, saving  # noqa: E402
+from .operators import bake_ops, deform_ops, live_ops, saving, setup_ops  # noqa: E402
+from .persistence import properties  # noqa: E402
 from .ui import panels, status_overlay  # noqa: E402
 
 # Order matters: bake_ops' panel is a child of panels' ARAP_PT_main; auto adds Blender handlers.

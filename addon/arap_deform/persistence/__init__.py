@@ -1,3 +1,3 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""What the .blend keeps: the settings (properties.py, solver_settings.py), the state saved while
-posing (saving.py), and the temporary files written beside it (temp_files.py)."""
+"""What the .blend keeps: the settings (properties.py, solver_settings.py) and the temporary files written
+beside it (temp_files.py)."""

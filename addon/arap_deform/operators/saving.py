@@ -14,7 +14,7 @@ import traceback
 import bpy
 from bpy.app.handlers import persistent
 
-from ..operators import bake_ops
+from . import bake_ops
 from ..solver import sessions
 
 
