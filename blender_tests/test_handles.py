@@ -266,6 +266,22 @@ class PanelAndRedo(unittest.TestCase):
         self.assertNotIn("Select a mesh object to pose it", texts)
         self.assertIn("Fixed Vertices", texts)
 
+    def test_the_panel_says_how_auto_mode_posed_the_mesh(self):
+        panels = U.addon("panels")
+        bpy.context.view_layer.objects.active = self.obj
+        rest = U.coords(self.obj)
+        self.empty.location.x += 0.5
+        self.obj.arap.auto = True   # the setting's update callback poses the mesh (at once in --background)
+        try:
+            self.assertGreater(np.abs(U.coords(self.obj) - rest).max(), 0.1)
+            panel = StandInPanel()
+            panels.ARAP_PT_main.draw(panel, bpy.context)
+            labels = [(kw.get("text"), kw.get("icon")) for name, _args, kw in panel.layout.all_calls()
+                      if name == "label"]
+            self.assertTrue(any(text.startswith("Auto: settled") and icon == 'INFO' for text, icon in labels), labels)
+        finally:
+            self.obj.arap.auto = False
+
     def test_solver_settings_in_a_collapsed_sub_panel_with_plain_tooltips(self):
         properties, panels = U.addon("properties", "panels")
         self.assertEqual(panels.ARAP_PT_solver.bl_parent_id, "ARAP_PT_main")

@@ -40,8 +40,9 @@ import numpy as np
 from bpy.app.handlers import persistent
 
 from .. import errors
+from ..persistence import properties
 from ..solver import bake, meshio, problem, sessions
-from ..ui import status_overlay
+from ..ui import panels, status_overlay
 from .background_bind import BackgroundBind
 from ..solver.dependency_loops import DependencyLoop
 from ..errors import SetupError
@@ -302,6 +303,18 @@ def contact(obj):
     return poser.contact if poser is not None else None
 
 
+def panel_lines(obj):
+    """What the panel says under the Auto toggle of `obj`, [(text, icon)]: its state, and whether Self Contact
+    stopped its pose short (nothing before its first pose)."""
+    poser = _posers.get(obj.as_pointer())
+    if poser is None:
+        return []
+    lines = [("Auto: " + poser.status(), 'INFO')]
+    if poser.contact is not None:
+        lines.append((poser.contact.status(), 'ERROR'))
+    return lines
+
+
 def auto_status_lines():
     """What the viewport shows: each Auto object settling, or settled in the last SETTLED_SHOWN_S (and
     whether Self Contact stopped its pose short)."""
@@ -319,6 +332,23 @@ def _redraw_later(seconds):
     """Redraw the viewports once `seconds` from now (to take a line away), in the UI only."""
     if not bpy.app.background:
         bpy.app.timers.register(lambda: status_overlay.redraw(), first_interval=seconds + 0.1)
+
+
+def _auto_changed(settings, context):
+    """Auto turned on (pose now) or off (the rest shape comes back)."""
+    if settings.auto:
+        settings.auto_status = ""
+        update_scene(context.scene)
+    else:
+        stop(settings.id_data)
+
+
+def _bind_changed(settings, context):
+    """Auto mode poses with a new setting fixed at bind (Volume, Self Contact) at once: its solver is bound
+    again."""
+    if settings.auto:
+        forget(settings.id_data)
+        update_scene(context.scene)
 
 
 def _settings_objects(scene):
@@ -594,6 +624,8 @@ def register():
     for name, fn in _HANDLERS:
         getattr(bpy.app.handlers, name).append(fn)
     status_overlay.add(auto_status_lines)
+    panels.auto_lines = panel_lines
+    properties.on_auto_changed, properties.on_bind_changed = _auto_changed, _bind_changed
     if not bpy.app.background:
         # Enabled again (or for the first time) with Auto objects in the open file: pose them now.
         bpy.app.timers.register(_pose_opened_file, first_interval=0.0)
@@ -604,6 +636,8 @@ def unregister():
     Auto goes on when the add-on is enabled again)."""
     global _timer_on
     status_overlay.remove(auto_status_lines)
+    panels.auto_lines = None
+    properties.on_auto_changed = properties.on_bind_changed = None
     for name, fn in _HANDLERS:
         handlers = getattr(bpy.app.handlers, name)
         if fn in handlers:

@@ -61,23 +61,20 @@ class ARAP_PG_handle(PropertyGroup):
     )
 
 
+# What Auto mode does when these settings change, fn(settings, context): auto.py gives them when it registers
+# (the settings import nothing above them).
+on_auto_changed = None     # Auto turned on or off
+on_bind_changed = None     # a setting fixed at bind (Volume, Self Contact)
+
+
 def _auto_changed(settings, context):
-    from ..auto import auto  # the handlers' module (imports the native bridge)
-    obj = settings.id_data
-    if settings.auto:
-        settings.auto_status = ""
-        auto.update_scene(context.scene)
-    else:
-        auto.stop(obj)
+    if on_auto_changed is not None:
+        on_auto_changed(settings, context)
 
 
 def _bind_changed(settings, context):
-    """Auto mode poses with a new setting fixed at bind (Volume, Self Contact) at once: its solver is bound
-    again."""
-    if settings.auto:
-        from ..auto import auto
-        auto.forget(settings.id_data)
-        auto.update_scene(context.scene)
+    if on_bind_changed is not None:
+        on_bind_changed(settings, context)
 
 
 class ARAP_PG_settings(PropertyGroup):

@@ -7,9 +7,12 @@ import textwrap
 
 import bpy
 
-from ..auto import auto
 from ..persistence import solver_settings
 from ..solver import problem, sessions
+
+# Auto mode's lines under its toggle, fn(obj) -> [(text, icon)]: auto.py gives it when it registers (the panels
+# import nothing above them).
+auto_lines = None
 
 
 class ARAP_UL_handles(bpy.types.UIList):
@@ -99,10 +102,9 @@ class ARAP_PT_main(bpy.types.Panel):
         col.prop(s, "auto", text="Auto (follow the handles)", toggle=True, icon='AUTO')
         if s.auto_status and not s.auto:
             col.label(text=s.auto_status, icon='ERROR')
-        elif s.auto and auto.status(obj):
-            col.label(text="Auto: " + auto.status(obj), icon='INFO')
-            if auto.contact(obj) is not None:
-                col.label(text=auto.contact(obj).status(), icon='ERROR')
+        elif s.auto and auto_lines is not None:
+            for text, icon in auto_lines(obj):
+                col.label(text=text, icon=icon)
         if session is None:
             col.operator("object.arap_deform", text="Deform", icon='MOD_SIMPLEDEFORM')
             col.operator("object.arap_live", text="Live", icon='PLAY')
