@@ -90,7 +90,7 @@ class SelfContact(unittest.TestCase):
         solver = solver_cache._cache[self.obj.as_pointer()][1]
         self.assertEqual(solver.contact, "self")
 
-    def test_where_nothing_comes_near_deform_gives_the_pose_without_self_contact(self):
+    def test_where_nothing_comes_near_deform_gives_the_pose_without_contact(self):
         gentle = Matrix.Translation((0.6, 0.0, 1.8))   # a sideways lean: no part comes near another
         self.deform(gentle, False)
         free = U.coords(self.obj)
