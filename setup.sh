@@ -77,7 +77,7 @@ case "$mode" in
     "$BUILD/arap-make-mesh" bar --vertices 2000 --output "$BUILD/demo_bar.obj" \
       --fixed-out "$BUILD/demo_fixed.txt" --handle-out "$BUILD/demo_handle.txt"
     "$BUILD/arap-deform" "$BUILD/demo_bar.obj" --fixed "$BUILD/demo_fixed.txt" \
-      --handle "$BUILD/demo_handle.txt" --translate 2,0,-1 --iterations 20 --output "$BUILD/demo_bar_bent.obj"
+      --handle "$BUILD/demo_handle.txt" --translate 2,0,-1 --max-iterations 20 --output "$BUILD/demo_bar_bent.obj"
     cmake --build "$BUILD" --target arap_addon_install
     blender --background -noaudio --python-exit-code 1 --python tools/demo_pose.py -- "$BUILD/demo"
     ;;

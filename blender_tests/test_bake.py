@@ -115,6 +115,13 @@ class Bake(unittest.TestCase):
         self.assertEqual([kb.name for kb in self.obj.data.shape_keys.key_blocks], ["Basis", "ARAP"])
         self.assertFalse(live.mute)
 
+    def test_the_per_frame_cap_is_max_iterations_and_iterations_its_deprecated_name(self):
+        r = bake.bake_shape_keys(self.obj, 1, 3, max_iterations=2, tolerance=0.0)
+        self.assertEqual(max(r.iterations), 2)
+        with self.assertWarns(DeprecationWarning):
+            r = bake.bake_pc2(self.obj, os.path.join(self.tmp, "old.pc2"), 1, 3, iterations=2, tolerance=0.0)
+        self.assertEqual(max(r.iterations), 2)
+
     def test_every_frame_is_stationary(self):
         # The bake solves to the object's tolerance (as Auto mode): a tight one gives stationary frames.
         self.assertTrue(all(bake.bake_shape_keys(self.obj, FRAMES[0], FRAMES[-1]).converged))

@@ -358,7 +358,7 @@ class Batch(unittest.TestCase):
         _co, keys, _mods = load_object(os.path.join(out_sk, "anim.blend"))
         self.assertEqual(keys, ["Basis"] + [bake.key_name(f) for f in range(1, 5)])
         code, text = run_batch(path, "--output", out_pc, "--bake", "1:4", "--bake-format", "pc2",
-                               "--iterations", 300)
+                               "--max-iterations", 300)
         self.assertEqual(code, 0, text)
         self.assertEqual(sorted(os.listdir(out_pc)), ["anim.blend", "anim_Bar.pc2"])
         start, _rate, data = bake.read_pc2(os.path.join(out_pc, "anim_Bar.pc2"))

@@ -61,12 +61,13 @@ class BatchHostile(unittest.TestCase):
         os.chmod(blender, stat.S_IRWXU)
         out = os.path.join(self.root, "out")
         common = [self.src, "--output", out, "--blender", blender, "--report", os.path.join(self.root, "r.json")]
-        flags = [("--jobs", "%s"), ("-j", "%s"), ("--frame", "%s"), ("--iterations", "%s"), ("--timeout", "%s"),
-                 ("--bake", "%s:10"), ("--bake", "1:%s"), ("--shard", "%s/4"), ("--shard", "0/%s")]
+        flags = [("--jobs", "%s"), ("-j", "%s"), ("--frame", "%s"), ("--max-iterations", "%s"), ("--iterations", "%s"),
+                 ("--timeout", "%s"), ("--bake", "%s:10"), ("--bake", "1:%s"), ("--shard", "%s/4"), ("--shard", "0/%s")]
         spellings = ["nan", "inf", "-inf", "1e999", "-1e999", "", "0x10", "0x1p3", " 1", "1 ", "1\n", "1_0", "+-1",
                      "\u0663", "9" * 5000]
         for flag, form in flags:
-            for spelling in spellings + ["-0"] * (flag in ("--jobs", "-j", "--iterations", "--timeout")):
+            zero = flag in ("--jobs", "-j", "--max-iterations", "--iterations", "--timeout")
+            for spelling in spellings + ["-0"] * zero:
                 value = form % spelling
                 with self.subTest(flag=flag, value=value[:50]):
                     text = self.assert_refused(*common, flag, value, fragment=flag)

@@ -54,13 +54,43 @@ class Launcher(unittest.TestCase):
             self.assertTrue(os.access(os.path.join(tree, "arap-batch"), os.X_OK), tree)
 
     def test_iterations_limit_is_the_solvers(self):
-        # The launcher checks --iterations in plain Python 3, without the native module, against its own copy of
+        # The launcher checks --max-iterations in plain Python 3, without the native module, against its own copy of
         # the limit: that copy must be the native option table's max_iterations maximum, in both trees.
         limit = U.addon("native_loader").native().OPTIONS["max_iterations"]["max"]
         for tree in (SOURCE, BUILD):
             code, out = run(["-c", "import arap_batch.cli as c; print(c.MAX_ITERATIONS)"], cwd=tree)
             self.assertEqual(code, 0, out)
             self.assertEqual(int(out), limit, tree)
+
+    def parsed_cap(self, *args):
+        """max_iterations as the launcher parses `args` (after its own checks), in plain Python 3."""
+        code, out = run(["-c", "import sys, arap_batch.cli as c; print(c.parse_args(sys.argv[1:]).max_iterations)",
+                         *args, "--addon-dir", STAGED, "--blender", bpy.app.binary_path], cwd=BUILD)
+        self.assertEqual(code, 0, out)
+        return int(out.split()[-1])
+
+    def test_max_iterations_and_its_short_form(self):
+        blend = S.make_good(os.path.join(self.tmp, "a.blend"))
+        out = os.path.join(self.tmp, "out")
+        self.assertEqual(self.parsed_cap(blend, "--output", out, "--max-iterations", 7), 7)
+        self.assertEqual(self.parsed_cap(blend, "--output", out, "--iterations", 8), 8)
+        code, text = run(["-m", "arap_batch", "--help"], cwd=SOURCE)
+        self.assertIn("--max-iterations N, --iterations N", text)
+        self.assertIn("--iterations is accepted as the short form", " ".join(text.split()))
+        # A worker given the short form by hand (one file) takes it too.
+        job = U.addon("batch_worker").parse_job(["--input", blend, "--output", blend, "--iterations", "9"])
+        self.assertEqual(job["max_iterations"], 9)
+
+    def test_rerun_of_an_older_report_keeps_its_iterations(self):
+        blend = S.make_good(os.path.join(self.tmp, "a.blend"))
+        report = os.path.join(self.tmp, "old.json")
+        mode = {"frame": 1, "bake": None, "bake_format": "shapekeys", "iterations": 12, "objects": [],
+                "in_place": False, "output_dir": os.path.join(self.tmp, "out")}
+        with open(report, "w", encoding="utf-8") as f:
+            json.dump({"arap_batch": 1, "mode": mode, "run": {"scheduler": "local"},
+                       "files": [{"input": blend, "output": os.path.join(self.tmp, "out", "a.blend"),
+                                  "status": "failed"}]}, f)
+        self.assertEqual(self.parsed_cap("--rerun-failed", report), 12)
 
     def test_source_add_on_without_module_is_a_usage_error(self):
         blend = S.make_good(os.path.join(self.tmp, "a.blend"))

@@ -65,7 +65,7 @@ class CliEquivalence(unittest.TestCase):
         subprocess.run([CLI, "--scenario", os.path.join(self.tmp, "s.json"), "--iterations", "10",
                         "--tolerance", "1e-6", "--init", "laplacian", "--weights", "cotan-clamped",
                         "--method", problem.METHOD_NAMES[obj.arap.method], "--output", out, "--quiet"], check=True)
-        api.deform(obj, iterations=10, tolerance=1e-6, init='LAPLACIAN')
+        api.deform(obj, max_iterations=10, tolerance=1e-6, init='LAPLACIAN')
         np.testing.assert_allclose(U.coords(obj), read_off_vertices(out), atol=1e-5)
 
 

@@ -59,7 +59,7 @@ class SelfContact(unittest.TestCase):
     def deform(self, pose, contact):
         self.empty.matrix_world = BIND
         api.reset(self.obj)   # (captures the Empty's bind pose again)
-        self.obj.arap.self_contact = contact
+        self.obj.arap.contact = contact
         self.empty.matrix_world = pose
         return api.deform(self.obj)
 
@@ -73,7 +73,7 @@ class SelfContact(unittest.TestCase):
             self.empty.keyframe_insert("location", frame=f)
 
     def test_deform_never_crosses_and_meets_the_constraints(self):
-        self.assertFalse(self.obj.arap.self_contact)   # the default: existing files pose as before
+        self.assertFalse(self.obj.arap.contact)   # the default: existing files pose as before
         free = self.deform(POSE, False)
         self.assertGreater(self.crossings(), 0, "without Self Contact the bar must fold through itself here")
         self.assertEqual(free.contact_reached, 1.0)
@@ -90,7 +90,7 @@ class SelfContact(unittest.TestCase):
         solver = solver_cache._cache[self.obj.as_pointer()][1]
         self.assertEqual(solver.contact, "self")
 
-    def test_where_nothing_comes_near_deform_gives_the_pose_without_self_contact(self):
+    def test_where_nothing_comes_near_deform_gives_the_pose_without_contact(self):
         gentle = Matrix.Translation((0.6, 0.0, 1.8))   # a sideways lean: no part comes near another
         self.deform(gentle, False)
         free = U.coords(self.obj)
@@ -136,7 +136,7 @@ class SelfContact(unittest.TestCase):
         for contact in (False, True):
             self.empty.matrix_world = BIND
             api.reset(self.obj)
-            self.obj.arap.self_contact = contact
+            self.obj.arap.contact = contact
             s = api.start_session(self.obj, bpy.context.scene)
             try:
                 self.assertEqual(s.solver.contact, "self" if contact else "none")
@@ -156,7 +156,7 @@ class SelfContact(unittest.TestCase):
         self.assertEqual(max(written[True]), 0, written[True])
 
     def test_live_reports_the_handle_stopped_once(self):
-        self.obj.arap.self_contact = True
+        self.obj.arap.contact = True
         s = api.start_session(self.obj, bpy.context.scene)
         try:
             s.step()
@@ -179,7 +179,7 @@ class SelfContact(unittest.TestCase):
         scene = bpy.context.scene
         scene.frame_set(STEPS)
         self.assertGreater(self.crossings(), 0)
-        self.obj.arap.self_contact = True   # Auto poses again with it, nothing else changed
+        self.obj.arap.contact = True   # Auto poses again with it, nothing else changed
         self.assertEqual(self.crossings(), 0)
         for f in range(1, STEPS + 1):
             scene.frame_set(f)
@@ -189,11 +189,11 @@ class SelfContact(unittest.TestCase):
             np.testing.assert_allclose(coords[self.top], self.top_targets(on_the_way(f)), atol=1e-5,
                                        err_msg="frame %d" % f)
         self.assertIsNone(auto.contact(self.obj))
-        self.obj.arap.self_contact = False
+        self.obj.arap.contact = False
         self.assertGreater(self.crossings(), 0)
 
     def test_auto_mode_says_which_handle_stopped(self):
-        self.obj.arap.self_contact = True
+        self.obj.arap.contact = True
         api.set_auto(self.obj, True)
         self.empty.matrix_world = THROUGH
         bpy.context.view_layer.update()
@@ -207,7 +207,7 @@ class SelfContact(unittest.TestCase):
         self.assertEqual(stop.status(), "Self Contact: handle 'top' stopped at %d%%" % stop.percent)
 
     def test_bake_never_crosses(self):
-        self.obj.arap.self_contact = True
+        self.obj.arap.contact = True
         self.animate()
         r = bake.bake_shape_keys(self.obj, 1, STEPS)
         self.assertEqual(r.warnings, [])
@@ -219,12 +219,12 @@ class SelfContact(unittest.TestCase):
             np.testing.assert_allclose(coords[self.top], self.top_targets(on_the_way(f)), atol=1e-5,
                                        err_msg="frame %d" % f)
         # The same frames without Self Contact: the last ones cross.
-        self.obj.arap.self_contact = False
+        self.obj.arap.contact = False
         free = bake.bake_shape_keys(self.obj, STEPS, STEPS)
         self.assertGreater(self.crossings(free.positions[0].astype(np.float64)), 0)
 
     def test_bake_names_the_frames_a_handle_stopped(self):
-        self.obj.arap.self_contact = True
+        self.obj.arap.contact = True
         self.empty.location = (0.0, 0.0, 2.0)
         self.empty.keyframe_insert("location", frame=1)
         self.empty.matrix_world = THROUGH
@@ -237,7 +237,7 @@ class SelfContact(unittest.TestCase):
             self.assertEqual(self.crossings(positions.astype(np.float64)), 0)
 
     def test_saved_in_the_blend_and_anderson_solves_with_quasi_newton(self):
-        self.obj.arap.self_contact = True
+        self.obj.arap.contact = True
         self.obj.arap.method = 'ANDERSON'
         with tempfile.TemporaryDirectory() as tmp:
             path = os.path.join(tmp, "contact.blend")
@@ -245,7 +245,7 @@ class SelfContact(unittest.TestCase):
             bpy.ops.wm.open_mainfile(filepath=path)
         self.obj = obj = bpy.data.objects["Bar"]
         self.empty = bpy.data.objects["TopEmpty"]
-        self.assertTrue(obj.arap.self_contact)
+        self.assertTrue(obj.arap.contact)
         self.assertEqual(obj.arap.method, 'ANDERSON')
         self.empty.matrix_world = POSE
         r = api.deform(obj)
@@ -257,7 +257,7 @@ class SelfContact(unittest.TestCase):
         r = api.deform(obj)
         self.assertIn("Volume Global and Self Contact need Quasi-Newton or Local/Global: solved with "
                       "Quasi-Newton", r.warnings)
-        obj.arap.self_contact = False
+        obj.arap.contact = False
         obj.arap.volume = 'NONE'
         r = api.deform(obj)
         self.assertFalse([w for w in r.warnings if "Quasi-Newton" in w], r.warnings)

@@ -30,7 +30,7 @@ class Deform(unittest.TestCase):
         targets = np.concatenate([rest[fixed], U.apply(a, rest[handle])])
         s = native_loader.native().Solver()
         s.bind(rest, U.triangles(obj), constrained, weights="cotan-clamped", init=init,
-               max_iterations=iterations, tolerance=tolerance, anderson_window=obj.arap.acceleration,
+               max_iterations=iterations, tolerance=tolerance, anderson_window=obj.arap.anderson_window,
                method=problem.METHOD_NAMES[obj.arap.method])
         s.solve(targets)
         return s, rest, constrained, targets
@@ -40,21 +40,36 @@ class Deform(unittest.TestCase):
         bind = empty.matrix_world.copy()
         empty.matrix_world = posed_empty_matrix()
         s, _rest, _c, _t = self.native_reference(obj, fixed, top, bind, empty.matrix_world, 10, tolerance=1e-6)
-        result = bpy.ops.object.arap_deform(iterations=10)
+        result = bpy.ops.object.arap_deform(max_iterations=10)
         self.assertEqual(result, {'FINISHED'})
         np.testing.assert_allclose(U.coords(obj), s.positions(), atol=1e-5)
 
     def test_operator_redo_properties_and_result(self):
         obj, empty, _f, _t = U.bar_with_handle()
         empty.location.x += 0.5
-        r = api.deform(obj, iterations=3, tolerance=0.0)
+        r = api.deform(obj, max_iterations=3, tolerance=0.0)
         self.assertEqual(r.iterations, 3)
         self.assertEqual(len(r.energies), 3)
         self.assertEqual(r.output, 'MESH')
         self.assertGreaterEqual(r.bind_ms, 0.0)
         self.assertTrue(r.energies[-1] <= r.initial_energy + 1e-9)
-        r2 = api.deform(obj, iterations=3, tolerance=0.0)
+        r2 = api.deform(obj, max_iterations=3, tolerance=0.0)
         self.assertTrue(r2.cached_bind, "the second deform with unchanged inputs reuses the bind")
+
+    def test_the_old_iterations_keyword_still_caps_with_a_deprecation_warning(self):
+        obj, empty, _f, _t = U.bar_with_handle()
+        empty.location.x += 0.5
+        with self.assertWarns(DeprecationWarning) as cm:
+            r = api.deform(obj, iterations=2, tolerance=0.0)
+        self.assertEqual(r.iterations, 2)
+        self.assertIn("max_iterations=", str(cm.warning))
+        self.assertTrue(cm.filename.endswith("test_deform.py"), cm.filename)   # the caller's line
+        with self.assertWarns(DeprecationWarning):
+            session = api.start_session(obj, bpy.context.scene, iterations=1, write=False)
+        self.assertEqual(session.solver.max_iterations, 1)
+        session.cancel()
+        with self.assertRaises(TypeError), self.assertWarns(DeprecationWarning):
+            api.deform(obj, max_iterations=2, iterations=2)
 
     def test_two_threads_give_the_one_thread_result(self):
         # 64 x 42 vertices: enough for the per-vertex passes to run on two threads.
@@ -65,7 +80,7 @@ class Deform(unittest.TestCase):
         shapes = []
         for threads in (1, 2, 1, 2):
             obj.arap.threads = threads
-            r = api.deform(obj, iterations=20, tolerance=0.0)
+            r = api.deform(obj, max_iterations=20, tolerance=0.0)
             self.assertEqual(r.iterations, 20)
             shapes.append(U.coords(obj))
         self.assertGreater(np.abs(shapes[0] - rest).max(), 0.5)  # it did move
@@ -76,7 +91,7 @@ class Deform(unittest.TestCase):
         obj, empty, _f, _t = U.bar_with_handle()
         self.assertIsNone(api.last_result(obj))
         empty.location.x += 0.5
-        self.assertEqual(bpy.ops.object.arap_deform(iterations=7), {'FINISHED'})
+        self.assertEqual(bpy.ops.object.arap_deform(max_iterations=7), {'FINISHED'})
         last = api.last_result(obj)
         self.assertIsNotNone(last)
         self.assertLessEqual(last.iterations, 7)
@@ -132,9 +147,9 @@ class Deform(unittest.TestCase):
         obj, empty, _f, _t = U.bar_with_handle()
         rest = U.coords(obj)
         empty.location.x += 0.5
-        api.deform(obj, iterations=5)
+        api.deform(obj, max_iterations=5)
         first = U.coords(obj)
-        api.deform(obj, iterations=5)
+        api.deform(obj, max_iterations=5)
         np.testing.assert_array_equal(U.coords(obj), first)
         api.reset(obj)
         np.testing.assert_array_equal(U.coords(obj), rest)
@@ -160,7 +175,7 @@ class Deform(unittest.TestCase):
         rest = U.coords(obj)
         motion = Matrix.Translation((0.4, -1.0, 0.8)) @ Euler((0.7, 0.1, -0.4)).to_matrix().to_4x4()
         empty.matrix_world = motion @ empty.matrix_world
-        r = api.deform(obj, iterations=150, tolerance=0.0)  # large rotation: ARAP converges slowly
+        r = api.deform(obj, max_iterations=150, tolerance=0.0)  # large rotation: ARAP converges slowly
         m_obj = U.np_matrix(obj.matrix_world)
         expected = U.apply(np.linalg.inv(m_obj) @ U.np_matrix(motion) @ m_obj, rest)
         np.testing.assert_allclose(U.coords(obj), expected, atol=2e-5)
@@ -174,7 +189,7 @@ class Deform(unittest.TestCase):
         bind = empty.matrix_world.copy()
         empty.matrix_world = (Matrix.Translation((0.3, 0.0, 0.4)) @ Euler((0.5, 0.0, 0.0)).to_matrix().to_4x4()
                               @ Matrix.Scale(1.3, 4)) @ bind
-        api.deform(obj, iterations=5)
+        api.deform(obj, max_iterations=5)
         m_obj = U.np_matrix(obj.matrix_world)
         a = np.linalg.inv(m_obj) @ U.np_matrix(empty.matrix_world) @ np.linalg.inv(U.np_matrix(bind)) @ m_obj
         np.testing.assert_allclose(U.coords(obj)[top], U.apply(a, rest[top]), atol=1e-5)
@@ -250,7 +265,7 @@ class Deform(unittest.TestCase):
         obj, empty, fixed, top = U.bar_with_handle()
         bind = empty.matrix_world.copy()
         empty.matrix_world = posed_empty_matrix()
-        api.deform(obj, iterations=300, tolerance=0.0)
+        api.deform(obj, max_iterations=300, tolerance=0.0)
         result = U.coords(obj)
         s, rest, constrained, targets = self.native_reference(obj, fixed, top, bind, empty.matrix_world, 1,
                                                               init="naive")

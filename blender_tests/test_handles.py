@@ -105,7 +105,7 @@ class HandlesFromSelection(unittest.TestCase):
         bpy.ops.object.mode_set(mode='OBJECT')
         empty = self.obj.arap.handles[0].empty
         empty.location.x += 1.0
-        self.assertEqual(bpy.ops.object.arap_deform(iterations=5), {'FINISHED'})
+        self.assertEqual(bpy.ops.object.arap_deform(max_iterations=5), {'FINISHED'})
         rest_top = np.array([tuple(self.obj.matrix_world @ v.co) for v in self.obj.data.vertices])[top]
         self.assertTrue(np.isfinite(U.coords(self.obj)).all())
         self.assertEqual(len(rest_top), len(top))
@@ -286,7 +286,8 @@ class PanelAndRedo(unittest.TestCase):
         properties, panels = U.addon("properties", "panels")
         self.assertEqual(panels.ARAP_PT_solver.bl_parent_id, "ARAP_PT_main")
         self.assertIn('DEFAULT_CLOSED', panels.ARAP_PT_solver.bl_options)
-        for name in ("iterations", "live_iterations", "tolerance", "weights", "init", "acceleration", "threads"):
+        for name in ("max_iterations", "live_max_iterations", "tolerance", "weights", "init", "anderson_window",
+                     "threads"):
             prop = properties.ARAP_PG_settings.bl_rna.properties[name]
             self.assertNotIn("README", prop.description, name)
             self.assertGreater(len(prop.description), 30, name)

@@ -293,7 +293,7 @@ class BlenderSetups(unittest.TestCase):
         api.start_session(self.obj, bpy.context.scene).cancel()
 
     def test_step_reads_empties_moved_by_a_script(self):
-        s = api.start_session(self.obj, bpy.context.scene, iterations=30)
+        s = api.start_session(self.obj, bpy.context.scene, max_iterations=30)
         s.step()
         self.empty.location.x += 0.8  # no view_layer.update(): matrix_world is stale until the depsgraph runs
         s.step()

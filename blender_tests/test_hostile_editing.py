@@ -40,7 +40,7 @@ class DeformWhileItSolves(unittest.TestCase):
         move(self.empty, 0.6)
         self.before = U.raw_coords(self.obj).copy()
         self.obj.arap.tolerance = 0.0     # the worker keeps solving until stopped
-        self.job = deform_job.DeformJob(self.obj, bpy.context.scene, iterations=100000)
+        self.job = deform_job.DeformJob(self.obj, bpy.context.scene, max_iterations=100000)
         self.job.start()
 
     def tearDown(self):
@@ -73,7 +73,7 @@ class DeformWhileItSolves(unittest.TestCase):
     def test_vertices_renumbered_with_the_same_count(self):
         # The counts are compared every poll, each corner's vertex once the solve is done, before writing.
         self.job.stop()
-        self.job = deform_job.DeformJob(self.obj, bpy.context.scene, iterations=5)
+        self.job = deform_job.DeformJob(self.obj, bpy.context.scene, max_iterations=5)
         self.job.start()
         renumber_vertices(self.obj)
         renumbered = U.raw_coords(self.obj).copy()

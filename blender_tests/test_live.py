@@ -167,12 +167,12 @@ class Live(unittest.TestCase):
 
     def test_warm_start_converges_to_one_shot(self):
         move(self.empty, dx=0.6)
-        s = api.start_session(self.obj, bpy.context.scene, iterations=1, write=False)
+        s = api.start_session(self.obj, bpy.context.scene, max_iterations=1, write=False)
         for _ in range(400):
             s.step()
         live = s.positions().reshape(-1, 3).astype(np.float64)
         s.cancel()
-        api.deform(self.obj, iterations=400, tolerance=0.0)
+        api.deform(self.obj, max_iterations=400, tolerance=0.0)
         np.testing.assert_allclose(live, U.coords(self.obj), atol=1e-3)
 
     def test_write_false_never_touches_mesh(self):
@@ -185,7 +185,7 @@ class Live(unittest.TestCase):
         s.cancel()
 
     def test_step_skips_when_nothing_moved_and_converged(self):
-        s = api.start_session(self.obj, bpy.context.scene, iterations=50)
+        s = api.start_session(self.obj, bpy.context.scene, max_iterations=50)
         s.step()
         if s.converged:
             self.assertIsNone(s.step(force=False))
@@ -352,7 +352,7 @@ class Live(unittest.TestCase):
         s = api.start_session(self.obj, bpy.context.scene)
         move(self.empty, dx=0.4)
         st = s.step()
-        self.assertLessEqual(st.iterations, self.obj.arap.live_iterations)
+        self.assertLessEqual(st.iterations, self.obj.arap.live_max_iterations)
         shown = s.solver.energy(U.coords(self.obj))
         self.assertAlmostEqual(st.energy, shown, delta=1e-4 * shown)   # float32 coordinates on the mesh
         s.cancel()

@@ -37,7 +37,7 @@ class LiveSoak(unittest.TestCase):
         obj, empty, _fixed, _top = U.bar_with_handle()
         start = empty.matrix_world.copy()
         before = U.raw_coords(obj).copy()
-        session = api.start_session(obj, bpy.context.scene, iterations=2)
+        session = api.start_session(obj, bpy.context.scene, max_iterations=2)
         # Every update does its 2 iterations: with the frame budget on, a busy machine would cut
         # some updates to 1 and the energies would differ by load, not by drift.
         session.frame_ms = 0.0

@@ -163,7 +163,7 @@ class DeformOnTheWorker(unittest.TestCase):
         # Stopped: nothing written, the solver usable again.
         set_coords(self.obj, before)
         self.obj.arap.tolerance = 0.0
-        job = deform_job.DeformJob(self.obj, bpy.context.scene, iterations=1000)
+        job = deform_job.DeformJob(self.obj, bpy.context.scene, max_iterations=1000)
         job.start()
         job.stop()
         self.assertTrue(np.array_equal(U.raw_coords(self.obj), before))
@@ -177,7 +177,7 @@ class DeformOnTheWorker(unittest.TestCase):
         self.obj, self.empty, _f, _t = U.bar_with_handle(vertices=64, cuts=40)
         move(self.empty, dx=0.6)
         self.obj.arap.method, self.obj.arap.tolerance = 'LOCAL_GLOBAL', 0.0
-        job = deform_job.DeformJob(self.obj, bpy.context.scene, iterations=10000)
+        job = deform_job.DeformJob(self.obj, bpy.context.scene, max_iterations=10000)
         job.start()
         seen = set()
         end = time.monotonic() + GIVE_UP_S
@@ -207,15 +207,15 @@ class UnsettledWarnings(unittest.TestCase):
         self.obj.arap.tolerance = 1e-12
 
     def test_from_the_object_setting(self):
-        self.obj.arap.iterations = 2
+        self.obj.arap.max_iterations = 2
         self.assertIn("in the Solver panel", " ".join(api.deform(self.obj).warnings))
 
     def test_from_an_argument(self):
-        self.assertIn("iterations=", " ".join(api.deform(self.obj, iterations=2).warnings))
+        self.assertIn("max_iterations=", " ".join(api.deform(self.obj, max_iterations=2).warnings))
 
     def test_from_the_redo_panel(self):
         bpy.context.view_layer.objects.active = self.obj
-        bpy.ops.object.arap_deform(iterations=2)
+        bpy.ops.object.arap_deform(max_iterations=2)
         result = api.last_result(self.obj)
         self.assertIn("Adjust Last Operation panel", " ".join(result.warnings))
 

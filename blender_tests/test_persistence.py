@@ -1,4 +1,5 @@
-# Settings survive save and reload of the .blend; Deform after reload uses the stored bind pose.
+# Settings survive save and reload of the .blend; Deform after reload uses the stored bind pose. A .blend saved
+# with the settings' old names (before they were named after the solver's options) keeps its values.
 import os
 import tempfile
 import unittest
@@ -15,8 +16,8 @@ class Persistence(unittest.TestCase):
         U.clear_scene()
         obj, empty, _fixed, top = U.bar_with_handle()
         s = obj.arap
-        s.iterations = 17
-        s.live_iterations = 3
+        s.max_iterations = 17
+        s.live_max_iterations = 3
         s.tolerance = 1e-4
         s.weights = 'UNIFORM'
         s.init = 'DIFFERENTIAL'
@@ -29,7 +30,7 @@ class Persistence(unittest.TestCase):
             bpy.ops.wm.open_mainfile(filepath=path)
         obj = bpy.data.objects["Bar"]
         s = obj.arap
-        self.assertEqual((s.fixed_group, s.iterations, s.live_iterations, s.weights, s.init, s.output),
+        self.assertEqual((s.fixed_group, s.max_iterations, s.live_max_iterations, s.weights, s.init, s.output),
                          ("bottom", 17, 3, 'UNIFORM', 'DIFFERENTIAL', 'MESH'))
         self.assertAlmostEqual(s.tolerance, 1e-4)
         self.assertEqual(len(s.handles), 1)
@@ -43,6 +44,80 @@ class Persistence(unittest.TestCase):
         rest = U.coords(obj)
         self.assertEqual(bpy.ops.object.arap_deform(), {'FINISHED'})
         np.testing.assert_allclose(U.coords(obj)[top], rest[top] + [0.4, 0.0, 0.3], atol=1e-5)
+
+
+# The settings as an older version saved them: plain ID properties under the old names.
+OLD_SETTINGS = {"iterations": 1, "live_iterations": 3, "acceleration": 7, "self_contact": 1}
+NEW_SETTINGS = {"max_iterations": 1, "live_max_iterations": 3, "anderson_window": 7, "contact": True}
+
+
+class RenamedSettings(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.addCleanup(self.tmp.cleanup)
+        self.problem, self.renamed = U.addon("problem", "renamed_settings")
+
+    def save_old_file(self, name, **new_values):
+        """A .blend holding a bar whose settings are under the old names (and `new_values` under the new)."""
+        U.clear_scene()
+        obj, _empty, _fixed, _top = U.bar_with_handle()
+        obj.arap.tolerance = 0.0      # every iteration up to the cap runs
+        for key, value in OLD_SETTINGS.items():
+            obj.arap[key] = value
+            self.assertIn(key, obj.arap)    # no property of that name any more: a plain ID property
+        for key, value in new_values.items():
+            setattr(obj.arap, key, value)
+        path = os.path.join(self.tmp.name, name)
+        bpy.ops.wm.save_as_mainfile(filepath=path)
+        return path
+
+    def assert_migrated(self, s, expected):
+        self.assertEqual({key: getattr(s, key) for key in expected}, expected)
+        self.assertEqual([key for key in OLD_SETTINGS if key in s], [])
+
+    def test_an_old_file_opens_with_its_settings_under_the_new_names(self):
+        bpy.ops.wm.open_mainfile(filepath=self.save_old_file("old.blend"))
+        obj = bpy.data.objects["Bar"]
+        self.assert_migrated(obj.arap, NEW_SETTINGS)
+        bpy.context.view_layer.objects.active = obj
+        bpy.data.objects["TopEmpty"].location.x += 0.3
+        self.assertEqual(bpy.ops.object.arap_deform(), {'FINISHED'})
+        self.assertEqual(U.addon("api").last_result(obj).iterations, 1)    # the old cap of 1
+        # Saved again, the file holds only the new names.
+        path = os.path.join(self.tmp.name, "resaved.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=path)
+        bpy.ops.wm.open_mainfile(filepath=path)
+        self.assert_migrated(bpy.data.objects["Bar"].arap, NEW_SETTINGS)
+
+    def test_a_value_set_under_the_new_name_wins(self):
+        bpy.ops.wm.open_mainfile(filepath=self.save_old_file("both.blend", max_iterations=9, contact=False))
+        self.assert_migrated(bpy.data.objects["Bar"].arap, dict(NEW_SETTINGS, max_iterations=9, contact=False))
+
+    def test_the_open_file_is_migrated_when_the_addon_is_enabled(self):
+        self.save_old_file("open.blend")
+        U.disable_addon()
+        U.enable_addon()
+        # Blender registers add-ons without the file's data (restricted): a timer migrates it from the event
+        # loop, which --background does not run here.
+        renamed = U.addon("renamed_settings")
+        self.assertTrue(bpy.app.timers.is_registered(renamed._migrate_later))
+        renamed._migrate_later()
+        self.assert_migrated(bpy.data.objects["Bar"].arap, NEW_SETTINGS)
+
+    def test_a_linked_object_is_read_under_its_old_names(self):
+        library = self.save_old_file("library.blend")
+        U.clear_scene()
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(self.tmp.name, "shot.blend"))   # not the library
+        with bpy.data.libraries.load(library, link=True) as (_src, dst):
+            dst.objects = ["Bar"]
+        obj = dst.objects[0]
+        self.assertIsNotNone(obj.library)
+        self.renamed.migrate_file()     # a library cannot be written: it keeps the old names
+        self.assertIn("iterations", obj.arap)
+        options = self.problem.solver_options(obj.arap)
+        self.assertEqual((options["max_iterations"], options["anderson_window"]), (1, 7))
+        self.assertEqual(self.problem.bind_options(obj.arap)["contact"], "self")
+        self.assertEqual(self.renamed.setting(obj.arap, "live_max_iterations"), 3)
 
 
 if __name__ == "__main__":

@@ -33,7 +33,7 @@ class SaveWhilePosing(unittest.TestCase):
         U.clear_scene()
         self.obj, self.empty, _fixed, self.top = U.bar_with_handle()
         self.obj.arap.output = 'MESH'
-        self.obj.arap.iterations = 23
+        self.obj.arap.max_iterations = 23
         self.rest = U.raw_coords(self.obj).copy()
         self.tmp = tempfile.mkdtemp(prefix="arap_save_")
         self.path = os.path.join(self.tmp, "posing.blend")
@@ -63,7 +63,7 @@ class SaveWhilePosing(unittest.TestCase):
         obj = self.reopen()
         self.assertTrue(np.array_equal(U.raw_coords(obj), shown))   # what was on screen
         self.assertTrue(np.array_equal(rest_attribute(obj), self.rest))
-        self.assertEqual((obj.arap.output, obj.arap.iterations, obj.arap.handles[0].empty.name),
+        self.assertEqual((obj.arap.output, obj.arap.max_iterations, obj.arap.handles[0].empty.name),
                          ('MESH', 23, "TopEmpty"))
         api.reset(obj)
         self.assertTrue(np.array_equal(U.raw_coords(obj), self.rest))
@@ -103,7 +103,7 @@ class SaveWhilePosing(unittest.TestCase):
         self.assertTrue(np.array_equal(U.raw_coords(obj), shown_before))
         self.assertFalse(bake.is_baked(obj))
         self.assertIsNone(rest_attribute(obj))
-        self.assertEqual(obj.arap.iterations, 23)
+        self.assertEqual(obj.arap.max_iterations, 23)
 
     def test_auto_mode_saved_while_settling_reopens_posed(self):
         api.set_auto(self.obj, True)

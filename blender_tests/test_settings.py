@@ -21,27 +21,27 @@ SETTINGS = "ARAP_PG_settings"
 # Every property of the add-on's settings and operators that is a solver option, and the option.
 OPTION_PROPERTIES = {
     (SETTINGS, "method"): "method",
-    (SETTINGS, "iterations"): "max_iterations",
-    (SETTINGS, "live_iterations"): "max_iterations",
+    (SETTINGS, "max_iterations"): "max_iterations",
+    (SETTINGS, "live_max_iterations"): "max_iterations",
     (SETTINGS, "tolerance"): "tolerance",
     (SETTINGS, "weights"): "weights",
     (SETTINGS, "init"): "init",
     (SETTINGS, "volume"): "volume",
     (SETTINGS, "infill_resolution"): "infill_resolution",
-    (SETTINGS, "self_contact"): "contact",
-    (SETTINGS, "acceleration"): "anderson_window",
+    (SETTINGS, "contact"): "contact",
+    (SETTINGS, "anderson_window"): "anderson_window",
     (SETTINGS, "threads"): "threads",
-    ("object.arap_deform", "iterations"): "max_iterations",
+    ("object.arap_deform", "max_iterations"): "max_iterations",
     ("object.arap_deform", "tolerance"): "tolerance",
     ("object.arap_deform", "init"): "init",
 }
 # Where the add-on departs from the table, and why.
 OWN = {
-    # At least one round: the solve worker (Deform's, Live's) refuses none.
-    (SETTINGS, "iterations"): {"min": 1},
-    ("object.arap_deform", "iterations"): {"min": 1},
+    # At least one iteration: the solve worker (Deform's, Live's) refuses none.
+    (SETTINGS, "max_iterations"): {"min": 1},
+    ("object.arap_deform", "max_iterations"): {"min": 1},
     # Live's cap per viewport update, not a solve's.
-    (SETTINGS, "live_iterations"): {"min": 1, "default": 100},
+    (SETTINGS, "live_max_iterations"): {"min": 1, "default": 100},
 }
 # Choices of the table that are no setting: "warm" (the last solution) is how Live and Auto mode start.
 NOT_OFFERED = {"init": {"warm"}}
@@ -108,6 +108,11 @@ class OptionTable(unittest.TestCase):
                 # Blender keeps float properties in single precision.
                 self.assertAlmostEqual(got, want[key], delta=abs(want[key]) * 1e-6, msg="%s %s" % (where, key))
 
+    def test_option_properties_are_named_after_their_option(self):
+        # One name per setting everywhere: the property is the option's name ("live_" for Live's own cap).
+        for (owner, name), option in OPTION_PROPERTIES.items():
+            self.assertIn(name, (option, "live_" + option), owner)
+
     def test_own_limits_are_within_the_table(self):
         table = native_loader.native().OPTIONS
         for (owner, name), own in OWN.items():
@@ -120,7 +125,7 @@ class OptionTable(unittest.TestCase):
 class DeformIterations(unittest.TestCase):
     def setUp(self):
         # A square sheet held at one corner and twisted at the other: local/global to a tolerance of 0
-        # takes about 3300 rounds to settle here (it stops only where the energy stops dropping).
+        # takes about 3300 iterations to settle here (it stops only where the energy stops dropping).
         U.clear_scene()
         self.obj = U.add_grid(x=20, y=20, size=4.0, name="Sheet")
         U.group_where(self.obj, "corner", lambda co: co.x < -1.8 and co.y < 0)
@@ -140,10 +145,10 @@ class DeformIterations(unittest.TestCase):
         return result.iterations
 
     def test_operator_runs_more_than_1000_iterations(self):
-        self.assertEqual(self.deform(iterations=1500), 1500)
+        self.assertEqual(self.deform(max_iterations=1500), 1500)
 
     def test_operator_runs_the_objects_setting_above_1000(self):
-        self.obj.arap.iterations = 1200
+        self.obj.arap.max_iterations = 1200
         self.assertEqual(self.deform(), 1200)
 
 
@@ -180,8 +185,8 @@ class WithoutTheNativeModule(unittest.TestCase):
             obj = U.add_cylinder()
             U.group_where(obj, "bottom", lambda co: co.z < -1.5)
             obj.arap.fixed_group = "bottom"
-            obj.arap.iterations = 20000     # a setting can be set and read without the module's table
-            self.assertEqual(obj.arap.iterations, 20000)
+            obj.arap.max_iterations = 20000     # a setting can be set and read without the module's table
+            self.assertEqual(obj.arap.max_iterations, 20000)
             self.assertFalse(probe.ui.panels.ARAP_PT_solver.poll(bpy.context))   # limits unknown: not shown
             with self.assertRaises(RuntimeError) as cm:
                 bpy.ops.object.arap_deform()

@@ -66,8 +66,8 @@ WORKER_EXPR = ("import sys; sys.path.insert(0, %r); "
 FILES_PER_SHARD = 25        # default --shards: a task's Blender start-up is paid over this many files
 MAX_SHARDS = 1000           # Slurm's default MaxArraySize is 1001
 MAX_FRAME = 1048574         # Blender's frames run from -MAX_FRAME to MAX_FRAME
-# The solver's max_iterations limit (the native option table's maximum), for checking --iterations without the
-# native module; blender_tests/test_batch_launcher.py fails when the two differ.
+# The solver's max_iterations limit (the native option table's maximum), for checking --max-iterations without
+# the native module; blender_tests/test_batch_launcher.py fails when the two differ.
 MAX_ITERATIONS = 1000000
 
 
@@ -149,7 +149,8 @@ def frame_range(text):
 # The options taking numbers (all their spellings): a value after them that starts with '-' and is not
 # an option of one letter is theirs ('--timeout -inf' would otherwise be "expected one argument").
 NUMERIC_OPTIONS = {"--jobs": "--jobs", "-j": "--jobs", "--frame": "--frame", "--bake": "--bake",
-                   "--iterations": "--iterations", "--timeout": "--timeout", "--shard": "--shard",
+                   "--max-iterations": "--max-iterations", "--iterations": "--iterations", "--timeout": "--timeout",
+                   "--shard": "--shard",
                    "--shards": "--shards"}
 
 
@@ -194,8 +195,9 @@ def build_parser():
     mode.add_argument("--bake", metavar="START:END", help="bake this frame range instead of posing one frame")
     p.add_argument("--bake-format", choices=("shapekeys", "pc2"),
                    help="shape keys per frame, or a .pc2 next to the output (default: shapekeys)")
-    p.add_argument("--iterations", type=whole(1, MAX_ITERATIONS), metavar="N",
-                   help="Deform iterations (default: each object's setting), or per-frame maximum when baking")
+    p.add_argument("--max-iterations", "--iterations", type=whole(1, MAX_ITERATIONS), metavar="N",
+                   help="Deform's iteration cap (default: each object's Max Iterations), or the per-frame cap when "
+                        "baking; --iterations is accepted as the short form")
     p.add_argument("--objects", nargs="+", action="extend", metavar="NAME",
                    help="only these objects (default: every mesh with ARAP settings)")
     p.add_argument("--report", metavar="FILE", help="write a JSON report here")
@@ -274,7 +276,8 @@ def check_numbers(p, a):
     """The numbers --rerun-failed took from a report pass the checks of the options' own."""
     for flag, value, ok in (("--jobs", a.jobs, lambda v: type(v) is int and v >= 1),
                             ("--frame", a.frame, lambda v: type(v) is int and abs(v) <= MAX_FRAME),
-                            ("--iterations", a.iterations, lambda v: type(v) is int and 1 <= v <= MAX_ITERATIONS),
+                            ("--max-iterations", a.max_iterations,
+                             lambda v: type(v) is int and 1 <= v <= MAX_ITERATIONS),
                             ("--timeout", a.timeout,
                              lambda v: type(v) in (int, float) and math.isfinite(v) and v > 0)):
         if value is not None and not ok(value):
@@ -308,7 +311,7 @@ def rerun_from_report(p, a):
     and the Slurm options when the scheduler stays the same)."""
     given = [o for o, v in (("FILE_OR_DIR", a.inputs), ("--files-from", a.files_from), ("--output", a.output),
                             ("--in-place", a.in_place), ("--frame", a.frame is not None), ("--bake", a.bake),
-                            ("--bake-format", a.bake_format), ("--iterations", a.iterations),
+                            ("--bake-format", a.bake_format), ("--max-iterations", a.max_iterations),
                             ("--objects", a.objects), ("--shard", a.shard)) if v]
     if given:
         p.error("--rerun-failed takes the files and settings from the report: drop %s" % ", ".join(given))
@@ -321,8 +324,8 @@ def rerun_from_report(p, a):
         p.error("%s comes from an older arap-batch that did not record the output folder: "
                 "run its failed files again by name" % a.rerun_failed)
     a.output, a.in_place = mode["output_dir"], mode["in_place"]
-    a.frame, a.bake_format, a.iterations, a.objects = mode["frame"], mode["bake_format"], mode["iterations"], \
-        mode["objects"]
+    a.frame, a.bake_format, a.objects = mode["frame"], mode["bake_format"], mode["objects"]
+    a.max_iterations = mode.get("max_iterations", mode.get("iterations"))   # "iterations": an older report
     a.bake = "%d:%d" % tuple(mode["bake"]) if mode["bake"] else None
     a.scheduler = a.scheduler or run.get("scheduler")
     same = a.scheduler == run.get("scheduler")      # else --jobs and the Slurm options do not carry over
@@ -446,7 +449,8 @@ class Worker:
         self.generation += 1
         job = {"files": [{"input": i, "output": o} for i, o in self.pending], "frame": self.args.frame,
                "bake": self.args.bake_range, "bake_format": self.args.bake_format,
-               "iterations": self.args.iterations, "objects": self.args.objects or [], "launcher_pid": os.getpid()}
+               "max_iterations": self.args.max_iterations, "objects": self.args.objects or [],
+               "launcher_pid": os.getpid()}
         path = os.path.join(self.tmpdir, "job-%d-%d.json" % (self.wid, self.generation))
         with open(path, "w", encoding="utf-8") as f:
             json.dump(job, f)
@@ -676,8 +680,8 @@ def run_slurm(args):
     if args.bake_range:
         opts.append("--bake=%d:%d" % tuple(args.bake_range))
     opts.append("--bake-format=" + args.bake_format)
-    if args.iterations:
-        opts.append("--iterations=%d" % args.iterations)
+    if args.max_iterations:
+        opts.append("--max-iterations=%d" % args.max_iterations)
     opts += ["--objects=" + name for name in args.objects or []]
     opts += ["--jobs=%d" % args.jobs, "--blender=" + args.blender, "--addon-dir=" + args.addon_dir]
     if args.timeout:
@@ -726,7 +730,7 @@ def main(argv=None):
         print("Nothing to rerun: every file in %s is ok." % args.rerun_failed)
         return 0
     args.mode = {"frame": args.frame, "bake": args.bake_range, "bake_format": args.bake_format,
-                 "iterations": args.iterations, "objects": args.objects, "in_place": args.in_place,
+                 "max_iterations": args.max_iterations, "objects": args.objects, "in_place": args.in_place,
                  "output_dir": os.path.abspath(args.output) if args.output else None}
     args.run_info = {"scheduler": args.scheduler, "jobs": args.jobs, "timeout": args.timeout,
                      "blender": args.blender, "addon_dir": args.addon_dir}

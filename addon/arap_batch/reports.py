@@ -2,7 +2,7 @@
 """arap-batch reports: one JSON file per run, merged across shards and reruns.
 
     {"arap_batch": 1, "started": ISO time, "elapsed_s": seconds, "jobs": workers,
-     "mode": {"frame", "bake", "bake_format", "iterations", "objects", "in_place", "output_dir"},
+     "mode": {"frame", "bake", "bake_format", "max_iterations", "objects", "in_place", "output_dir"},
      "run": {"scheduler": "local" | "slurm", "jobs", "timeout", "blender", "addon_dir", ...},
      "shard": [K, N],                      (a --shard run only)
      "missing_shards": ["K/N", ...],       (a merge that lacked some shard's report)

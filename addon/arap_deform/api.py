@@ -22,7 +22,7 @@ Then:
     api.set_fixed(obj, "feet")
     api.add_handle(obj, "hand", bpy.data.objects["HandEmpty"])   # bind pose = the empty now
     bpy.data.objects["HandEmpty"].location.z += 0.5
-    result = api.deform(obj, iterations=20)
+    result = api.deform(obj, max_iterations=20)
     print(result.energies, result.solve_ms)
 
 Rules:
@@ -44,6 +44,7 @@ import bpy
 import numpy as np
 
 from . import native_loader
+from .persistence import renamed_settings
 from .solver import deform_job, problem, solver_cache
 from .solver.deform_job import DeformResult  # noqa: F401
 from .errors import SessionError, SetupError  # noqa: F401
@@ -128,15 +129,17 @@ def bind(obj, scene=None):
     return solver.mesh_report()
 
 
-def deform(obj, iterations=None, tolerance=None, init=None, scene=None):
+def deform(obj, max_iterations=None, tolerance=None, init=None, scene=None, iterations=None):
     """Solve from the rest shape and write the result. Returns DeformResult.
 
-    iterations/tolerance/init (None: the object's settings; init is one of
+    max_iterations/tolerance/init (None: the object's settings; init is one of
     'LAPLACIAN', 'DIFFERENTIAL', 'NAIVE'). `scene`, when given, is used to
-    detect empties deleted from it.
+    detect empties deleted from it. iterations= is the deprecated name of
+    max_iterations= (a DeprecationWarning).
     """
     _registered()
-    return deform_job.deform(obj, scene=scene, iterations=iterations, tolerance=tolerance, init=init)
+    max_iterations = renamed_settings.max_iterations_argument(max_iterations, iterations)
+    return deform_job.deform(obj, scene=scene, max_iterations=max_iterations, tolerance=tolerance, init=init)
 
 
 def set_rest_pose(obj):
@@ -162,14 +165,16 @@ def set_auto(obj, enabled=True):
         raise SetupError(obj.arap.auto_status or "Auto posing could not start on '%s'" % obj.name)
 
 
-def start_session(obj, scene=None, iterations=None, write=True):
+def start_session(obj, scene=None, max_iterations=None, write=True, iterations=None):
     """A LiveSession: call .step() after moving empties, then .finish() or .cancel().
 
+    max_iterations: per step (None: the object's Live Max Iterations; iterations= is its deprecated name).
     With write=False the mesh is never changed; read .positions() (flat float32,
     object-local) after each step, e.g. to bake frames.
     """
     _registered()
-    return LiveSession(obj, scene=scene, iterations=iterations, write=write)
+    max_iterations = renamed_settings.max_iterations_argument(max_iterations, iterations)
+    return LiveSession(obj, scene=scene, max_iterations=max_iterations, write=write)
 
 
 def last_result(obj):

@@ -12,7 +12,7 @@ job.json:
      "frame": null | F,               # pose at frame F (null: the file's current frame)
      "bake": null | [START, END],     # bake instead of posing
      "bake_format": "shapekeys" | "pc2",
-     "iterations": null | N,          # Deform iterations, or per-frame maximum when baking
+     "max_iterations": null | N,      # Deform's iteration cap, or the per-frame cap when baking
      "objects": [] | ["Name", ...],   # default: every mesh with ARAP settings
      "results": null | "/path/results.jsonl",
      "launcher_pid": null | PID}      # stop (SIGTERM) when this process dies
@@ -20,7 +20,7 @@ job.json:
 Or, for one file (e.g. one farm task), the same settings as flags:
 
     blender ... --python-expr "..." -- --input a.blend --output out/a.blend \
-        [--frame F | --bake START:END [--bake-format pc2]] [--iterations N] [--objects NAME ...]
+        [--frame F | --bake START:END [--bake-format pc2]] [--max-iterations N] [--objects NAME ...]
 
 For every file, one JSON line {"event": "start", "input": ...} before it and
 one {"event": "result", "input", "output", "status": "ok" | "failed",
@@ -130,15 +130,15 @@ def _pose(obj, job, scene, out_path, written):
                 pc2 = os.path.join(folder, "%s_%s.pc2" % (stem, bpy.path.clean_name(obj.name)))
                 # Relative to the open file; save_as_mainfile(relative_remap=True) rebases it.
                 r = bake.bake_pc2(obj, bpy.path.relpath(pc2), start, end, scene=scene,
-                                  iterations=job.get("iterations"))
+                                  max_iterations=job.get("max_iterations"))
                 written.append(pc2)
                 rec["pc2"] = pc2
             else:
-                r = bake.bake_shape_keys(obj, start, end, scene=scene, iterations=job.get("iterations"))
+                r = bake.bake_shape_keys(obj, start, end, scene=scene, max_iterations=job.get("max_iterations"))
             rec.update(frames=len(r.frames), energies=r.energies, iterations=r.iterations,
                        ms=round(r.total_ms, 2), warnings=r.warnings)
         else:
-            r = api.deform(obj, iterations=job.get("iterations"), scene=scene)
+            r = api.deform(obj, max_iterations=job.get("max_iterations"), scene=scene)
             rec.update(energies=r.energies, energy=r.energy, iterations=r.iterations,
                        ms=round(r.bind_ms + r.solve_ms + r.io_ms, 2), warnings=r.warnings)
     except Exception as exc:  # noqa: BLE001 - every error of one object fails its file
@@ -251,13 +251,13 @@ def parse_job(argv):
     p.add_argument("--frame", type=int)
     p.add_argument("--bake", help="START:END")
     p.add_argument("--bake-format", choices=("shapekeys", "pc2"), default="shapekeys")
-    p.add_argument("--iterations", type=int)
+    p.add_argument("--max-iterations", "--iterations", type=int)
     p.add_argument("--objects", nargs="+", default=[])
     p.add_argument("--results")
     a = p.parse_args(argv)
     bake = [int(x) for x in a.bake.split(":")] if a.bake else None
     return {"files": [{"input": os.path.abspath(a.input), "output": os.path.abspath(a.output)}],
-            "frame": a.frame, "bake": bake, "bake_format": a.bake_format, "iterations": a.iterations,
+            "frame": a.frame, "bake": bake, "bake_format": a.bake_format, "max_iterations": a.max_iterations,
             "objects": a.objects, "results": a.results}
 
 

@@ -68,7 +68,7 @@ def posed_tube(api, name, vertices):
 def bench_ours(api, vertices, frames, iterations):
     obj, empty, start, h = posed_tube(api, "Arap", vertices)
     t = time.perf_counter()
-    session = api.start_session(obj, bpy.context.scene, iterations=iterations)
+    session = api.start_session(obj, bpy.context.scene, max_iterations=iterations)
     bind_ms = (time.perf_counter() - t) * 1e3
     wall, solve = [], []
     for k, dx in enumerate([0.0] + offsets(frames, h)):  # frame 0 is a warm-up

@@ -54,7 +54,7 @@ def posed_bar(api, path, contact, threads):
     bpy.context.view_layer.update()
     api.set_fixed(obj, "fixed")
     api.add_handle(obj, "top", empty)
-    obj.arap.self_contact = contact
+    obj.arap.contact = contact
     obj.arap.threads = threads
     return obj, empty, top, np.array([0.5, 0.0, -0.6]) * length
 

@@ -42,7 +42,7 @@ def sphere(segments, rings):
 def measure(segments, rings, frames, iterations):
     api = U.addon("api")
     obj, empty = sphere(segments, rings)
-    session = api.start_session(obj, bpy.context.scene, iterations=iterations)
+    session = api.start_session(obj, bpy.context.scene, max_iterations=iterations)
     rows = []
     depsgraph_ms = []
     for f in range(frames + 3):

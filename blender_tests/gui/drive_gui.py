@@ -135,7 +135,7 @@ def run(gui):
     redo = gui.wait("Deform to run from the keyboard",
                     lambda s: s.get("redo", {}).get("operator") == "OBJECT_OT_arap_deform")["redo"]
     print("redo panel after Deform:", redo)
-    if (redo["operator"], redo["iterations"], redo["init"]) != ("OBJECT_OT_arap_deform", 37, "LAPLACIAN") \
+    if (redo["operator"], redo["max_iterations"], redo["init"]) != ("OBJECT_OT_arap_deform", 37, "LAPLACIAN") \
             or abs(redo["tolerance"] - 1e-5) > 1e-9:
         raise Fail("the redo panel does not show the values Deform used: %s" % redo)
     auto_mode(gui)

@@ -61,7 +61,7 @@ def setup():
     bpy.context.scene.collection.objects.link(empty)
     empty.matrix_world = Matrix.Translation((0.0, 0.0, 1.0))
     api.add_handle(obj, "top", empty)
-    obj.arap.live_iterations = 3
+    obj.arap.live_max_iterations = 3
     obj.select_set(True)
     bpy.context.view_layer.objects.active = obj
     STATE["top"] = [v.index for v in obj.data.vertices if v.co.z > 0.7]
@@ -149,7 +149,7 @@ def report_redo_panel():
     ops = bpy.context.window_manager.operators
     if len(ops) and ops[-1].bl_idname == "OBJECT_OT_arap_deform":
         p = ops[-1].properties
-        STATE["redo"] = {"operator": ops[-1].bl_idname, "iterations": p.iterations, "tolerance": p.tolerance,
+        STATE["redo"] = {"operator": ops[-1].bl_idname, "max_iterations": p.max_iterations, "tolerance": p.tolerance,
                          "init": p.init}
 
 
@@ -173,7 +173,7 @@ def big_deform():
         empty.matrix_world = Matrix.Translation((1.5, 0.0, 1.0))
         api.add_handle(big, "top", empty)
         empty.location.x += 0.6
-        big.arap.method, big.arap.tolerance, big.arap.iterations = 'LOCAL_GLOBAL', 0.0, 10000
+        big.arap.method, big.arap.tolerance, big.arap.max_iterations = 'LOCAL_GLOBAL', 0.0, 10000
         bpy.context.view_layer.update()
         STATE["big_hash"] = coords_hash(big)
         STATE["big_vertices"] = len(big.data.vertices)
@@ -275,7 +275,7 @@ def tick():
             select_rig(lambda z: z > 0.7)
         if take("cmd_redo_settings"):
             obj = bpy.data.objects["Bar"]
-            obj.arap.iterations, obj.arap.tolerance, obj.arap.init = 37, 1e-5, 'LAPLACIAN'
+            obj.arap.max_iterations, obj.arap.tolerance, obj.arap.init = 37, 1e-5, 'LAPLACIAN'
             bpy.context.view_layer.objects.active = obj
         if STATE.get("ready"):
             report_redo_panel()

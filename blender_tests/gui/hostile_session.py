@@ -47,7 +47,7 @@ def slow_bar(name, cuts=60):
     """A bar whose solve runs until it is stopped (the textbook method, tolerance 0), its Empty moved."""
     obj, empty, _fixed, top = U.bar_with_handle(vertices=48, cuts=cuts)
     obj.name, empty.name = name, name + "Empty"
-    obj.arap.method, obj.arap.tolerance, obj.arap.iterations = 'LOCAL_GLOBAL', 0.0, 100000
+    obj.arap.method, obj.arap.tolerance, obj.arap.max_iterations = 'LOCAL_GLOBAL', 0.0, 100000
     bpy.context.view_layer.objects.active = obj
     empty.location.x += 0.6
     bpy.context.view_layer.update()
@@ -130,7 +130,7 @@ def steps():
     check(job.worker is None and not job.solver.busy, "disabled: Deform's worker stopped")
     check((U.raw_coords(obj) == rest).all(), "disabled: the mesh is untouched")
     check(U.enable_addon() is not None, "enabled again")
-    obj.arap.method, obj.arap.tolerance, obj.arap.iterations = 'QUASI_NEWTON', 1e-4, 1000
+    obj.arap.method, obj.arap.tolerance, obj.arap.max_iterations = 'QUASI_NEWTON', 1e-4, 1000
     check(bpy.ops.object.arap_deform() == {'FINISHED'}, "Deform works again")
     check(abs(U.raw_coords(obj) - rest).max() > 0.3, "and poses the mesh")
     U.clear_scene()

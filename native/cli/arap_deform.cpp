@@ -161,7 +161,7 @@ int run(const cli::DeformArgs& args) {
   if (!stats.converged && args.options.tolerance > 0)
     std::cerr << "arap-deform: stopped at the cap of " << stats.iterations
               << " iterations before the energy settled (tolerance " << args.options.tolerance
-              << "); raise --iterations to go on\n";
+              << "); raise --max-iterations to go on\n";
   if (!args.quiet) {
     std::printf("%s: %d vertices, %d faces (%d triangles), %d fixed, %d handle vertices\n", mesh_path.c_str(),
                 info.vertices, info.faces, info.triangles, info.fixed, info.handle_vertices);

@@ -32,7 +32,7 @@ the lowest F of the height (default 0.2), --handle-out those in the highest H
 
 Example (bend a bar):
   arap-make-mesh bar --vertices 2000 --output bar.obj --fixed-out fixed.txt --handle-out handle.txt
-  arap-deform bar.obj --fixed fixed.txt --handle handle.txt --translate 2,0,-1 --iterations 20 --output bent.obj
+  arap-deform bar.obj --fixed fixed.txt --handle handle.txt --translate 2,0,-1 --max-iterations 20 --output bent.obj
 )";
 
 struct Usage : std::runtime_error {

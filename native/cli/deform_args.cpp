@@ -20,7 +20,7 @@ namespace {
 // for one line per choice with its note from kChoiceNotes, the default's
 // marked: every default and choice it prints comes from arap::option_specs().
 const char* const kUsageTemplate = R"(Usage:
-  arap-deform --scenario S.json [--iterations N] [options] --output OUT.off [--report R.json]
+  arap-deform --scenario S.json [--max-iterations N] [options] --output OUT.off [--report R.json]
   arap-deform INPUT.obj [--fixed fixed.txt] --handle handle.txt --translate DX,DY,DZ
               [--rotate AXIS,DEGREES] [--handle h2.txt --translate ...] ... [options] --output OUT.obj
 
@@ -46,7 +46,7 @@ Inputs:
 Solver options (the defaults solve until the pose has settled):
   --method NAME         how the energy is minimised:
 {method list}
-  --iterations N        safety cap on the iterations (default {max_iterations}); a solve that
+  --max-iterations N    safety cap on the iterations (default {max_iterations}); a solve that
                         reaches it says so on stderr
   --tolerance T         stop when an iteration lowers the energy by <= T * E
                         (default {tolerance}; 0 = run until the energy stops falling
@@ -54,7 +54,7 @@ Solver options (the defaults solve until the pose has settled):
   --init NAME           first guess: {init choices} (default {init})
   --weights NAME        {weights choices} (default {weights})
   --threads K           worker threads (default {threads})
-  --anderson M          Anderson window (default {anderson_window}); alone it implies --method anderson
+  --anderson-window M   Anderson window (default {anderson_window}); alone it implies --method anderson
   --volume MODE         what keeps thick parts from losing volume where they bend:
 {volume list}
   --infill-resolution N lattice cells along the mesh's longest side (default {infill_resolution})
@@ -62,7 +62,9 @@ Solver options (the defaults solve until the pose has settled):
                         itself, parts stay a gap apart (docs/contact.md);
                         quasi-newton or local-global
   The textbook iteration of the paper, e.g. to compare energies with other
-  implementations: --method local-global --iterations N --tolerance 0.
+  implementations: --method local-global --max-iterations N --tolerance 0.
+  The flags are named after the solver's options; --iterations and --anderson
+  are accepted as the short forms of --max-iterations and --anderson-window.
 
 Output:
   --output OUT          result mesh (.off .obj .ply), same faces as the input
@@ -83,7 +85,7 @@ const std::map<std::string, std::vector<const char*>> kChoiceNotes = {
       "al. 2017): 4-5x less CPU to the same", "minimum than local-global"}},
     {"local-global",
      {"the textbook alternation of Sorkine &", "Alexa 2007, one local and one global step", "per iteration"}},
-    {"anderson", {"local-global with Anderson acceleration", "(Peng et al. 2018), window --anderson M"}},
+    {"anderson", {"local-global with Anderson acceleration", "(Peng et al. 2018), window --anderson-window M"}},
     {"none", {"surface ARAP only"}},
     {"global",
      {"the enclosed volume of every closed part kept", "exactly (open parts are left alone);",
@@ -185,20 +187,26 @@ double parse_number(const std::string& flag, const std::string& s) {
 }
 
 // The solver options on the command line: flag -> arap::option_specs() name,
-// which gives their parsing, limits and messages.
+// which gives their parsing, limits and messages. The flags are the names with '-' for '_'.
 constexpr std::pair<const char*, const char*> kOptionFlags[] = {{"--method", "method"},
                                                                 {"--weights", "weights"},
                                                                 {"--init", "init"},
-                                                                {"--iterations", "max_iterations"},
+                                                                {"--max-iterations", "max_iterations"},
                                                                 {"--tolerance", "tolerance"},
                                                                 {"--threads", "threads"},
-                                                                {"--anderson", "anderson_window"},
+                                                                {"--anderson-window", "anderson_window"},
                                                                 {"--volume", "volume"},
                                                                 {"--infill-resolution", "infill_resolution"},
                                                                 {"--contact", "contact"}};
 
+// The short forms older scripts use, each the same option as its flag.
+constexpr std::pair<const char*, const char*> kShortFlags[] = {{"--iterations", "max_iterations"},
+                                                               {"--anderson", "anderson_window"}};
+
 const char* option_of_flag(const std::string& flag) {
   for (const auto& [f, name] : kOptionFlags)
+    if (flag == f) return name;
+  for (const auto& [f, name] : kShortFlags)
     if (flag == f) return name;
   return nullptr;
 }
@@ -248,7 +256,8 @@ Eigen::Vector3d parse_vector(const std::string& flag, const std::string& s) {
 
 DeformArgs parse_deform_args(int argc, const char* const* argv) {
   DeformArgs a;
-  bool method_given = false, anderson_given = false, infill_resolution_given = false;
+  bool method_given = false, infill_resolution_given = false;
+  std::string anderson_flag;  // the spelling of the Anderson window's flag given, if any
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     auto value = [&]() -> std::string {
@@ -284,7 +293,7 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
       if (refused_here(option, text)) throw UsageError(arg + " " + text + " makes no sense for a single solve");
       set_option_from_flag(a.options, arg, option, text);
       method_given = method_given || arg == "--method";
-      anderson_given = anderson_given || arg == "--anderson";
+      if (std::string(option) == "anderson_window") anderson_flag = arg;
       infill_resolution_given = infill_resolution_given || arg == "--infill-resolution";
     } else if (arg == "--output" || arg == "-o") {
       a.output = value();
@@ -300,10 +309,10 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
     }
   }
   if (a.help) return a;
-  // --anderson M alone keeps its old meaning: the Anderson-accelerated alternation.
-  if (anderson_given && !method_given) a.options.method = Method::Anderson;
-  if (anderson_given && a.options.method != Method::Anderson)
-    throw UsageError("--anderson applies to --method anderson only");
+  // --anderson-window M (or --anderson M) alone keeps its old meaning: the Anderson-accelerated alternation.
+  if (!anderson_flag.empty() && !method_given) a.options.method = Method::Anderson;
+  if (!anderson_flag.empty() && a.options.method != Method::Anderson)
+    throw UsageError(anderson_flag + " applies to --method anderson only");
   if (infill_resolution_given && a.options.volume != Volume::Infill)
     throw UsageError("--infill-resolution applies to --volume infill only");
   if (const std::optional<OptionConflict> conflict = method_conflict(a.options))

@@ -28,7 +28,7 @@ struct DeformArgs {
   std::string input;     // INPUT mesh with --fixed and --handle/--translate groups
   std::string fixed_file;
   std::vector<HandleArg> handles;
-  Options options;  // --iterations, --tolerance, --init, --weights, --threads, --anderson
+  Options options;  // --max-iterations, --tolerance, --init, --weights, --threads, --anderson-window
   std::string output;
   std::string report;
   bool quiet = false;

@@ -157,7 +157,7 @@ using arap_test::Result;
 TEST_F(Cli, BendsABarAndReports) {
   const auto bar = make_bar_files();
   const Result r =
-      run("bar.obj --fixed fixed.txt --handle handle.txt --translate 2,0,-1 --iterations 15 --tolerance 0 "
+      run("bar.obj --fixed fixed.txt --handle handle.txt --translate 2,0,-1 --max-iterations 15 --tolerance 0 "
           "--init naive --weights cotan --output bent.obj --report report.json");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(r.err.empty()) << r.err;
@@ -208,7 +208,7 @@ TEST_F(Cli, DefaultsSolveUntilSettledAndReportAHitCap) {
   EXPECT_LT(settled["iterations"].get<int>(), settled["max_iterations"].get<int>());
 
   // The textbook iteration on request: exactly N plain iterations, a higher energy after them.
-  r = run(setup + "--method local-global --iterations 10 --tolerance 0 --output p.obj --report p.json -q");
+  r = run(setup + "--method local-global --max-iterations 10 --tolerance 0 --output p.obj --report p.json -q");
   ASSERT_EQ(r.code, 0) << r.err;
   const json plain = json::parse(slurp(path("p.json")));
   EXPECT_EQ(plain["method"], "local-global");
@@ -216,7 +216,7 @@ TEST_F(Cli, DefaultsSolveUntilSettledAndReportAHitCap) {
   EXPECT_GT(plain["energy"].back().get<double>(), settled["energy"].back().get<double>());
 
   // A cap below what the tolerance needs: the result is written and the cap is named.
-  r = run(setup + "--iterations 2 --output c.obj -q");
+  r = run(setup + "--max-iterations 2 --output c.obj -q");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("cap of 2 iterations"), std::string::npos) << r.err;
   EXPECT_TRUE(fs::exists(path("c.obj")));
@@ -229,11 +229,39 @@ TEST_F(Cli, MethodsAreListedAndChecked) {
     EXPECT_NE(help.out.find(name), std::string::npos) << name;
   const std::string ok = "bar.obj --fixed fixed.txt --handle handle.txt --translate 1,0,0";
   expect_bad_input(ok + " --method newton");
-  expect_bad_input(ok + " --method quasi-newton --anderson 3");
-  // --anderson alone keeps meaning the accelerated alternation.
-  const Result r = run(ok + " --anderson 3 --output a.off --report a.json -q");
-  ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_EQ(json::parse(slurp(path("a.json")))["method"], "anderson");
+  // The Anderson window alone keeps meaning the accelerated alternation, in both spellings of its flag.
+  for (const std::string flag : {"--anderson-window", "--anderson"}) {
+    const Result refused = run(ok + " --method quasi-newton " + flag + " 3 --output a.off");
+    EXPECT_EQ(refused.code, 2);
+    EXPECT_EQ(refused.err, "arap-deform: " + flag + " applies to --method anderson only (see --help)\n");
+    const Result r = run(ok + " " + flag + " 3 --output a.off --report a.json -q");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(json::parse(slurp(path("a.json")))["method"], "anderson");
+  }
+}
+
+// The flags are the option table's names; --iterations and --anderson, the short forms older scripts use,
+// set the same options, and --help says so.
+TEST_F(Cli, FlagsAreTheOptionNamesWithTheShortFormsAccepted) {
+  make_bar_files();
+  const std::string help = run("--help").out;
+  for (const char* flag : {"\n  --max-iterations N ", "\n  --anderson-window M ", "\n  --contact MODE "})
+    EXPECT_NE(help.find(flag), std::string::npos) << flag;
+  EXPECT_NE(help.find("--iterations and --anderson\n  are accepted as the short forms"), std::string::npos) << help;
+  const std::string ok = "bar.obj --fixed fixed.txt --handle handle.txt --translate 1,0,0 -q --tolerance 0";
+  for (const std::string flags : {"--max-iterations 3 --anderson-window 4", "--iterations 3 --anderson 4"}) {
+    SCOPED_TRACE(flags);
+    const Result r = run(ok + " --method anderson " + flags + " --output a.off --report a.json");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const json report = json::parse(slurp(path("a.json")));
+    EXPECT_EQ(report["max_iterations"].get<int>(), 3);
+    EXPECT_EQ(report["anderson_window"].get<int>(), 4);
+    EXPECT_LE(report["iterations"].get<int>(), 3);
+  }
+  EXPECT_EQ(run(ok + " --iterations 0 --output a.off").code, 0);
+  const Result r = run(ok + " --iterations 1000001 --output a.off");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err.rfind("arap-deform: --iterations expects ", 0), 0u) << r.err;
 }
 
 TEST_F(Cli, ScenarioWithMatrixHandleAndOverlapWarning) {
@@ -245,7 +273,7 @@ TEST_F(Cli, ScenarioWithMatrixHandleAndOverlapWarning) {
             {"handles", {{{"vertices", handle_}, {"matrix", {0, -1, 0, 1, 1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}}}}}};
   s["handles"][0]["vertices"].push_back(fixed_[0]);
   write("s.json", s.dump());
-  const Result r = run("--scenario s.json --iterations 5 --output twisted.off --quiet");
+  const Result r = run("--scenario s.json --max-iterations 5 --output twisted.off --quiet");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(r.out.empty());
   EXPECT_NE(r.err.find("fixed"), std::string::npos);
@@ -262,11 +290,13 @@ TEST_F(Cli, ScenarioWithMatrixHandleAndOverlapWarning) {
 TEST_F(Cli, AVertexInTwoHandlesFollowsTheFirstWithAWarning) {
   const auto bar = make_bar_files("bar.off");
   write("second.txt", join({handle_[0], handle_[1]}));
-  const Result r = run("bar.off --fixed fixed.txt --handle handle.txt --translate 0,0,1 --handle second.txt "
-                       "--translate 0,0,-1 --iterations 3 --tolerance 0 --output out.off --quiet");
+  const Result r =
+      run("bar.off --fixed fixed.txt --handle handle.txt --translate 0,0,1 --handle second.txt "
+          "--translate 0,0,-1 --max-iterations 3 --tolerance 0 --output out.off --quiet");
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_EQ(r.err, "arap-deform: warning: Handle 1: 2 of its vertices are also in handle 0 and follow that one\n"
-                   "arap-deform: warning: Handle 1 has no vertices of its own: ignored\n");
+  EXPECT_EQ(r.err,
+            "arap-deform: warning: Handle 1: 2 of its vertices are also in handle 0 and follow that one\n"
+            "arap-deform: warning: Handle 1 has no vertices of its own: ignored\n");
   const arap::io::PolygonMesh out = arap::io::read_mesh(path("out.off"));
   EXPECT_NEAR(out.vertices(handle_[0], 2), bar.vertices(handle_[0], 2) + 1, 1e-9);
 }
@@ -309,10 +339,15 @@ TEST_F(Cli, HelpTakesDefaultsAndChoicesFromTheOptionTable) {
     return help.substr(begin + 1, help.find("\n  --", begin + 1) - begin - 1);
   };
   const arap::Options defaults;
-  const std::pair<const char*, const char*> flags[] = {
-      {"--method", "method"},       {"--iterations", "max_iterations"}, {"--tolerance", "tolerance"},
-      {"--init", "init"},           {"--weights", "weights"},           {"--threads", "threads"},
-      {"--anderson", "anderson_window"}, {"--volume", "volume"},        {"--infill-resolution", "infill_resolution"}};
+  const std::pair<const char*, const char*> flags[] = {{"--method", "method"},
+                                                       {"--max-iterations", "max_iterations"},
+                                                       {"--tolerance", "tolerance"},
+                                                       {"--init", "init"},
+                                                       {"--weights", "weights"},
+                                                       {"--threads", "threads"},
+                                                       {"--anderson-window", "anderson_window"},
+                                                       {"--volume", "volume"},
+                                                       {"--infill-resolution", "infill_resolution"}};
   for (const auto& [flag, name] : flags) {
     const std::string key = name;
     const arap::OptionSpec& spec = arap::option_spec(key);
@@ -349,18 +384,18 @@ TEST_F(Cli, HelpTakesDefaultsAndChoicesFromTheOptionTable) {
 TEST_F(Cli, OptionLimitsAreTheLibrarys) {
   const auto bar = make_bar_files();
   const std::string ok = "bar.obj --fixed fixed.txt --handle handle.txt --translate 1,0,0 -q --output out.obj";
-  Result r = run(ok + " --method anderson --anderson 20 --threads 64 --tolerance 1 --iterations 1");
+  Result r = run(ok + " --method anderson --anderson-window 20 --threads 64 --tolerance 1 --max-iterations 1");
   EXPECT_EQ(r.code, 0) << r.err;
   // No iteration: the first guess (the rest shape with the handle moved) is written.
-  r = run(ok + " --iterations 0");
+  r = run(ok + " --max-iterations 0");
   ASSERT_EQ(r.code, 0) << r.err;
   const arap::io::PolygonMesh out = arap::io::read_mesh(path("out.obj"));
   for (int v : {handle_[0], fixed_[0]})
     EXPECT_NEAR(out.vertices(v, 0), bar.vertices(v, 0) + (v == handle_[0] ? 1 : 0), 1e-6);
-  r = run(ok + " --anderson 21");
+  r = run(ok + " --anderson-window 21");
   EXPECT_EQ(r.code, 2);
-  EXPECT_EQ(r.err, "arap-deform: --anderson expects " + arap::option_limits(arap::option_spec("anderson_window")) +
-                       ", got '21' (see --help)\n");
+  const std::string limits = arap::option_limits(arap::option_spec("anderson_window"));
+  EXPECT_EQ(r.err, "arap-deform: --anderson-window expects " + limits + ", got '21' (see --help)\n");
   EXPECT_NE(r.err.find("between 0 and 20"), std::string::npos);
 }
 
@@ -415,9 +450,11 @@ TEST_F(Cli, NumericFlagsTakeFiniteNumbersInRangeOnly) {
       {"--translate", base + " --translate '", ",0,0'", true},
       {"--translate", base + " --translate '0,0,", "'", true},
       {"--rotate", base + " --rotate 'x,", "'", true},
+      {"--max-iterations", base + " --translate 1,0,0 --max-iterations '", "'", true},
       {"--iterations", base + " --translate 1,0,0 --iterations '", "'", true},
       {"--tolerance", base + " --translate 1,0,0 --tolerance '", "'", true},
       {"--threads", base + " --translate 1,0,0 --threads '", "'", false},
+      {"--anderson-window", base + " --translate 1,0,0 --method anderson --anderson-window '", "'", true},
       {"--anderson", base + " --translate 1,0,0 --method anderson --anderson '", "'", true},
       {"--infill-resolution", base + " --translate 1,0,0 --volume infill --infill-resolution '", "'", false},
   };

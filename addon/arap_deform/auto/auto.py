@@ -47,6 +47,7 @@ from .background_bind import BackgroundBind
 from ..solver.dependency_loops import DependencyLoop
 from ..errors import SetupError
 from ..native_loader import native
+from ..persistence.renamed_settings import setting
 
 FRAME_BUDGET_MS = 30.0      # in the viewport, the worker shows a new pose at least this often while it solves
 POLL_S = 1.0 / 60.0         # how often the viewport looks for the worker's newest pose
@@ -86,7 +87,7 @@ class AutoPoser:
         self.written = None      # pose key of the mesh's current coordinates
         self.pending = None      # pose key being solved across updates (by the worker, in the viewport)
         self.iterations = 0      # spent on the pending pose
-        self.max_iterations = max(obj.arap.iterations, bake.DEFAULT_ITERATIONS)   # per pose
+        self.max_iterations = max(setting(obj.arap, "max_iterations"), bake.DEFAULT_ITERATIONS)   # per pose
         self.current = None      # handle transforms of the solver's current state
         self.state_key = None    # the pose key the solver's current state belongs to
         self.by_frame = {}       # frame -> key of its last settled pose (the next frame starts there)

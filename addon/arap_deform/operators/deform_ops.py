@@ -13,6 +13,7 @@ import bpy
 
 from .. import errors
 from ..persistence import solver_settings
+from ..persistence.renamed_settings import setting
 from ..solver import deform_job, sessions
 from ..ui import modal_timers, status_overlay
 
@@ -30,12 +31,12 @@ class ARAP_OT_deform(bpy.types.Operator):
 
     # The redo panel (F9) shows the values the solve used: _start_job() fills any not given from the
     # object's settings; defaults and limits are the settings' (solver_settings.py, from the option table).
-    iterations: solver_settings.option_int(
-        "max_iterations", name="Iterations", **solver_settings.ITERATIONS_RANGE,
+    max_iterations: solver_settings.option_int(
+        "max_iterations", name="Max Iterations", **solver_settings.ITERATIONS_RANGE,
         description="Most iterations; it stops earlier once the pose has settled")
     tolerance: solver_settings.option_float(
         "tolerance", name="Tolerance", **solver_settings.TOLERANCE_STYLE,
-        description="Stop when a round improves the pose by less than this fraction")
+        description="Stop when an iteration improves the pose by less than this fraction")
     init: solver_settings.option_enum(
         "init", solver_settings.INIT_ITEMS, solver_settings.INIT_NAMES, name="Start From",
         description="The shape the solver starts from")
@@ -53,13 +54,13 @@ class ARAP_OT_deform(bpy.types.Operator):
             raise errors.SetupError("Live is running on '%s': apply or cancel it first" % obj.name)
         source = 'SETTINGS'
         if obj is not None:
-            for name in ("iterations", "tolerance", "init"):
+            for name in ("max_iterations", "tolerance", "init"):
                 if not self.properties.is_property_set(name):
-                    setattr(self, name, getattr(obj.arap, name))
+                    setattr(self, name, setting(obj.arap, name))
             # A cap other than the object's setting was set in the redo panel (or by the caller).
-            if self.iterations != obj.arap.iterations:
+            if self.max_iterations != setting(obj.arap, "max_iterations"):
                 source = 'OPERATOR'
-        return deform_job.DeformJob(obj, context.scene, self.iterations, self.tolerance, self.init,
+        return deform_job.DeformJob(obj, context.scene, self.max_iterations, self.tolerance, self.init,
                                 iterations_from=source)
 
     def _report_result(self, result):

@@ -104,16 +104,16 @@ class ARAP_PG_settings(PropertyGroup):
         "method", METHOD_ITEMS, METHOD_NAMES,
         name="Method", description="How the energy is minimised (all reach the same minimum)",
     )
-    iterations: option_int(
+    max_iterations: option_int(
         "max_iterations",
-        name="Iterations",
+        name="Max Iterations",
         description="Most iterations a Deform may take, a safety cap: it stops once the pose has settled "
                     "(see Tolerance)",
         **ITERATIONS_RANGE,
     )
-    live_iterations: option_int(
+    live_max_iterations: option_int(
         "max_iterations",
-        name="Live Iterations",
+        name="Live Max Iterations",
         description="Most iterations per viewport update while Live runs; each update also stops at the "
                     "Live Frame Budget, and Live goes on while nothing moves until the pose has settled",
         default=100, min=1, soft_max=1000,
@@ -127,8 +127,9 @@ class ARAP_PG_settings(PropertyGroup):
     tolerance: option_float(
         "tolerance",
         name="Tolerance",
-        description="How settled the pose must be to stop: the solver stops when a round improves it by "
-                    "less than this fraction. Smaller is more exact and slower; 0 always runs every round",
+        description="How settled the pose must be to stop: the solver stops when an iteration improves it by "
+                    "less than this fraction. Smaller is more exact and slower; 0 runs every iteration up to "
+                    "Max Iterations",
         **TOLERANCE_STYLE,
     )
     weights: option_enum(
@@ -163,10 +164,11 @@ class ARAP_PG_settings(PropertyGroup):
         "infill_resolution",
         name="Infill Resolution",
         description="Lattice cubes along the longest side of the mesh: finer follows thin parts better and costs "
-                    "more per round",
+                    "more per iteration",
         soft_max=64, update=_bind_changed,
     )
-    self_contact: BoolProperty(
+    # Named after the solver's contact option: on is its "self", off its "none" (solver_settings.CONTACT_NAMES).
+    contact: BoolProperty(
         name="Self Contact",
         description="The surface never passes through itself: parts that are apart at rest stay at least a small "
                     "gap apart in every pose Deform, Live, Auto and the bake make, and a handle whose move would "
@@ -175,9 +177,9 @@ class ARAP_PG_settings(PropertyGroup):
         default=False,
         update=_bind_changed,
     )
-    acceleration: option_int(
+    anderson_window: option_int(
         "anderson_window",
-        name="Acceleration",
+        name="Anderson Window",
         description="Speeds up settling of the Anderson method by extrapolating from this many past iterations "
                     "(Anderson acceleration). A step is kept only when it improves the pose",
     )

@@ -55,8 +55,8 @@ def option_enum(option, items, names, **keywords):
     return EnumProperty(items=items, **keywords)
 
 
-# Iterations and Tolerance as the object's settings and the Deform operator's redo panel both show them:
-# at least one round (the solve worker refuses none); dragging reaches 10 000, typing the table's maximum.
+# Max Iterations and Tolerance as the object's settings and the Deform operator's redo panel both show them:
+# at least one iteration (the solve worker refuses none); dragging reaches 10 000, typing the table's maximum.
 ITERATIONS_RANGE = {"min": 1, "soft_max": 10000}
 TOLERANCE_STYLE = {"precision": 7, "step": 0.0001}
 
@@ -81,16 +81,16 @@ METHOD_ITEMS, METHOD_NAMES = _choices(
      "(Liu et al. 2017): the same minimum as local/global, on meshes of 10k+ vertices in a fifth of the time "
      "or less"),
     ('LOCAL_GLOBAL', "local-global", "Local/Global", "The textbook alternation of Sorkine & Alexa 2007"),
-    ('ANDERSON', "anderson", "Anderson", "Local/global with Anderson acceleration over the Acceleration window"),
+    ('ANDERSON', "anderson", "Anderson", "Local/global with Anderson acceleration over the Anderson Window"),
 )
 VOLUME_ITEMS, VOLUME_NAMES = _choices(
     ('NONE', "none", "Surface Only", "Surface ARAP: thick parts can fold flat and lose volume where they bend "
      "(the paper's method)"),
     ('GLOBAL', "global", "Global", "Keep the enclosed volume of every closed part exactly; open parts are left "
-     "as they are. About 1.4x the cost of a round, but the volume a bend squeezes out goes to the ends"),
+     "as they are. About 1.4x the cost of an iteration, but the volume a bend squeezes out goes to the ends"),
     ('INFILL', "infill", "Infill", "Fill the inside with a lattice posed with the surface, like a 3D print's "
      "infill: keeps the volume and cross-sections where it bends, on any mesh (open ones too); 1.3x to 3.4x the "
-     "cost of a round"),
+     "cost of an iteration"),
 )
 # Self Contact is a switch: off and on are the contact option's two choices.
 CONTACT_NAMES = {False: "none", True: "self"}

@@ -46,6 +46,7 @@ import numpy as np
 
 from . import anim_compat, constraints, deform_job, meshio, problem, sessions
 from ..persistence import temp_files
+from ..persistence.renamed_settings import max_iterations_argument
 from ..errors import SetupError
 from ..native_loader import native
 
@@ -127,7 +128,7 @@ class Baker:
     otherwise they are kept in memory for the shape keys.
     """
 
-    def __init__(self, obj, start, end, scene=None, iterations=None, tolerance=None, anderson=None,
+    def __init__(self, obj, start, end, scene=None, max_iterations=None, tolerance=None, anderson=None,
                  measure_gradient=False, pc2_path=None):
         constraints.check_object(obj)
         if end < start:
@@ -147,9 +148,10 @@ class Baker:
         self.problem = problem.Problem(obj, self.scene, rest32=bake_rest(obj))
         self.setup = self.problem.setup
         self.rest64 = self.problem.rest64
-        if anderson is None:   # the option's default window, not the object's Acceleration
+        if anderson is None:   # the option's default window, not the object's Anderson Window
             anderson = native().OPTIONS["anderson_window"]["default"]
-        self.solver = problem.configured_solver(self.problem, obj.arap, iterations=iterations or DEFAULT_ITERATIONS,
+        self.solver = problem.configured_solver(self.problem, obj.arap,
+                                                max_iterations=max_iterations or DEFAULT_ITERATIONS,
                                                 tolerance=tolerance, warm=True, anderson=anderson)
         self.free = np.ones(len(self.rest64), bool)
         self.free[self.setup.constrained] = False
@@ -296,21 +298,22 @@ class Baker:
         return self._finish('PC2', self.pc2_path, write)
 
 
-def bake_shape_keys(obj, start, end, scene=None, iterations=None, tolerance=None, anderson=None,
-                    measure_gradient=False, progress=None):
+def bake_shape_keys(obj, start, end, scene=None, max_iterations=None, tolerance=None, anderson=None,
+                    measure_gradient=False, progress=None, iterations=None):
     """Bake frames start..end (inclusive) into shape keys "ARAP_f0001"...
 
     Each key holds the solved pose of its frame and is keyed to 1 at that frame
-    and 0 at the frames next to it. iterations: at most this many per frame
+    and 0 at the frames next to it. max_iterations: at most this many per frame
     (default 2000); tolerance: the solver's tolerance for a frame (default:
     the object's, as Auto mode); the object's method solves (anderson: the
     window when that is Anderson; default: the option's default window, not
-    the object's Acceleration). Replaces a previous bake; the Basis and base
+    the object's Anderson Window). Replaces a previous bake; the Basis and base
     mesh are not modified. Returns a BakeResult
     (energies, iterations, ms per frame). Raises SetupError on a bad set-up,
-    with the object unchanged.
+    with the object unchanged. iterations= is the deprecated name of max_iterations=.
     """
-    baker = Baker(obj, start, end, scene, iterations, tolerance, anderson, measure_gradient)
+    max_iterations = max_iterations_argument(max_iterations, iterations)
+    baker = Baker(obj, start, end, scene, max_iterations, tolerance, anderson, measure_gradient)
     try:
         baker.run(progress)
     except BaseException:
@@ -319,15 +322,16 @@ def bake_shape_keys(obj, start, end, scene=None, iterations=None, tolerance=None
     return baker.write_shape_keys()
 
 
-def bake_pc2(obj, path, start, end, scene=None, iterations=None, tolerance=None, anderson=None,
-             measure_gradient=False, progress=None):
+def bake_pc2(obj, path, start, end, scene=None, max_iterations=None, tolerance=None, anderson=None,
+             measure_gradient=False, progress=None, iterations=None):
     """Bake frames start..end into the point cache `path` (.pc2, object-local
     coordinates, start frame = `start`, one sample per frame) and add a Mesh
     Cache modifier "ARAP Bake" reading it. `path` may be Blender-relative
     ("//anim.pc2"). Other arguments and the result as bake_shape_keys(), but
     result.positions is None: read them back with read_pc2(path).
     """
-    baker = Baker(obj, start, end, scene, iterations, tolerance, anderson, measure_gradient, pc2_path=path)
+    max_iterations = max_iterations_argument(max_iterations, iterations)
+    baker = Baker(obj, start, end, scene, max_iterations, tolerance, anderson, measure_gradient, pc2_path=path)
     try:
         baker.run(progress)
     except BaseException:

@@ -57,7 +57,7 @@ class DeformJob:
     has finished: a stopped or failed job leaves it untouched.
     """
 
-    def __init__(self, obj, scene=None, iterations=None, tolerance=None, init=None, iterations_from=None):
+    def __init__(self, obj, scene=None, max_iterations=None, tolerance=None, init=None, iterations_from=None):
         t0 = time.perf_counter()
         self.obj, self.scene = obj, scene
         sync_matrices()
@@ -67,10 +67,11 @@ class DeformJob:
         self.pose = self.problem.pose(obj, scene)
         self.targets = self.problem.targets(self.pose)
         self.solver, self.bind_ms, self.cached = solver_cache.bound_solver(obj, self.problem)
-        self.solver.configure(**solver_options(obj.arap, iterations=iterations, tolerance=tolerance, init=init))
+        self.solver.configure(**solver_options(obj.arap, max_iterations=max_iterations, tolerance=tolerance,
+                                               init=init))
         self.max_iterations = self.solver.max_iterations
         # Where the cap was set, for the warning when the pose does not settle (problem.RAISE_ITERATIONS).
-        self.iterations_from = iterations_from or ('SETTINGS' if iterations is None else 'ARGUMENT')
+        self.iterations_from = iterations_from or ('SETTINGS' if max_iterations is None else 'ARGUMENT')
         self.positions = np.empty(len(self.problem.rest32), np.float32)
         self.worker = None
         self._prepare_ms = (time.perf_counter() - t0) * 1e3 - self.bind_ms
@@ -145,14 +146,14 @@ class DeformJob:
                                                  self.cached))
 
 
-def deform(obj, scene=None, iterations=None, tolerance=None, init=None, iterations_from=None):
+def deform(obj, scene=None, max_iterations=None, tolerance=None, init=None, iterations_from=None):
     """One-shot solve from the rest shape; writes the result (mesh or shape key).
 
     Raises SetupError or the native ArapError; the mesh is untouched then.
-    iterations_from: where `iterations` came from (a key of problem.RAISE_ITERATIONS), named by the warning
+    iterations_from: where `max_iterations` came from (a key of problem.RAISE_ITERATIONS), named by the warning
     when the pose did not settle; by default the argument, or the Solver panel's setting when it is None.
     """
-    return DeformJob(obj, scene, iterations, tolerance, init, iterations_from).run()
+    return DeformJob(obj, scene, max_iterations, tolerance, init, iterations_from).run()
 
 
 # The last DeformResult or BakeResult of each object in this Blender session (not saved in the .blend).

@@ -18,6 +18,7 @@ from . import constraints, meshio, sessions
 from .dependency_loops import DependencyLoop
 from ..errors import SessionError, SetupError
 from ..native_loader import native
+from ..persistence.renamed_settings import setting
 from .problem import Problem, bind_warnings, configured_solver, pose_contact_stop, sync_matrices
 
 
@@ -60,12 +61,12 @@ class LiveSession:
 
     update() runs the same solves, chunks of one frame budget each, on the
     SolveWorker's thread, and the worker sleeps once the pose has settled (or
-    after the Iterations setting's cap on one set of targets). cancel()
+    after the Max Iterations setting's cap on one set of targets). cancel()
     restores the snapshot taken at start bit for bit; finish() keeps the
     newest finished pose.
     """
 
-    def __init__(self, obj, scene=None, iterations=None, write=True):
+    def __init__(self, obj, scene=None, max_iterations=None, write=True):
         constraints.check_object(obj)
         if sessions.session_for(obj) is not None:
             # A second session would take the first one's pose as its rest shape.
@@ -85,8 +86,8 @@ class LiveSession:
         self.contact = None     # problem.ContactStop: Self Contact stopped the last settled pose short
         s = obj.arap
         self.frame_ms = s.live_frame_ms
-        self.solver = configured_solver(self.problem, s, iterations=iterations or s.live_iterations, warm=True,
-                                        time_budget_ms=self.frame_ms)
+        self.solver = configured_solver(self.problem, s, warm=True, time_budget_ms=self.frame_ms,
+                                        max_iterations=max_iterations or setting(s, "live_max_iterations"))
         self.bind_ms = self.solver.bind_ms
         self.buffer = np.empty(len(self.problem.rest32), np.float32)
         self.write_enabled = write
@@ -98,7 +99,7 @@ class LiveSession:
         self._pose_key = None    # HandlePose.key of the targets last solved for
         self.targets = None      # those targets
         self.worker = None       # the SolveWorker update() hands the solves to (created by its first call)
-        self._settle_iterations = s.iterations
+        self._settle_iterations = setting(s, "max_iterations")
         if write:
             self.output.ensure()
         sessions.add(self)

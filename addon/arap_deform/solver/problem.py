@@ -15,13 +15,15 @@ from ..errors import SetupError
 from ..native_loader import native
 # Blender enum items -> the native module's option values (declared with the items).
 from ..persistence.solver_settings import CONTACT_NAMES, INIT_NAMES, METHOD_NAMES, VOLUME_NAMES, WEIGHT_NAMES
+# The renamed settings, read through setting(): a library saved by an older version holds the old names.
+from ..persistence.renamed_settings import setting
 
 
 def bind_options(settings):
     """The bind options of the object's Volume and Self Contact settings (native names): what the solver
     keeps besides the surface's rigidity, fixed at bind."""
     return {"volume": VOLUME_NAMES[settings.volume], "infill_resolution": settings.infill_resolution,
-            "contact": CONTACT_NAMES[settings.self_contact]}
+            "contact": CONTACT_NAMES[setting(settings, "contact")]}
 
 
 # How the panel names a native option's value that Anderson cannot be combined with.
@@ -103,7 +105,7 @@ class Problem:
         self.threads = s.threads  # large meshes order and factor in two halves side by side
 
     @property
-    def self_contact(self):
+    def has_contact(self):
         """The surface is kept from passing through itself (Self Contact): a pose may stop short."""
         return self.bind_options["contact"] != "none"
 
@@ -159,17 +161,17 @@ class Problem:
         return solver
 
 
-def solver_options(settings, iterations=None, tolerance=None, init=None, anderson=None, warm=False,
+def solver_options(settings, max_iterations=None, tolerance=None, init=None, anderson=None, warm=False,
                    time_budget_ms=0.0):
     """The solver's options (native OPTIONS names) from an object's settings
     (obj.arap); a given argument replaces the setting. `warm`: each solve()
     starts from the last solution, the first from the start shape `init`."""
     start = INIT_NAMES[init or settings.init]
     options = {
-        "max_iterations": iterations or settings.iterations,
+        "max_iterations": max_iterations or setting(settings, "max_iterations"),
         "tolerance": settings.tolerance if tolerance is None else tolerance,
         "method": solver_method(settings),
-        "anderson_window": settings.acceleration if anderson is None else anderson,
+        "anderson_window": setting(settings, "anderson_window") if anderson is None else anderson,
         "threads": settings.threads,
         "time_budget_ms": time_budget_ms,
     }
@@ -227,9 +229,9 @@ def bind_warnings(report, problem, settings):
 
 # Where the iteration cap of a solve was set, and what a user raises there (unconverged_warning).
 RAISE_ITERATIONS = {
-    'SETTINGS': "raise Iterations in the Solver panel",
-    'OPERATOR': "raise Iterations in the Adjust Last Operation panel (F9)",
-    'ARGUMENT': "pass a larger iterations=",
+    'SETTINGS': "raise Max Iterations in the Solver panel",
+    'OPERATOR': "raise Max Iterations in the Adjust Last Operation panel (F9)",
+    'ARGUMENT': "pass a larger max_iterations=",
 }
 
 
@@ -305,7 +307,7 @@ def pose_contact_stop(problem, positions, targets):
     `targets`; the handle that made the smallest share of its move from rest, or None when each is at its
     targets. For solves that go on from one another (Live, Auto mode in the viewport), each of which
     reports only how far it took the handles itself."""
-    if not problem.self_contact:
+    if not problem.has_contact:
         return None
     at = positions.reshape(-1, 3)[problem.setup.constrained]
     stop = None

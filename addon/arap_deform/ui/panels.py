@@ -96,7 +96,7 @@ class ARAP_PT_main(bpy.types.Panel):
         sub.prop(s, "volume")
         if s.volume == 'INFILL':
             sub.prop(s, "infill_resolution")
-        sub.prop(s, "self_contact")
+        sub.prop(s, "contact")
 
         col = layout.column(align=True)
         col.prop(s, "auto", text="Auto (follow the handles)", toggle=True, icon='AUTO')
@@ -137,7 +137,7 @@ class SubPanel:
 
 
 class ARAP_PT_solver(SubPanel, bpy.types.Panel):
-    """How the solver works: method, iterations, frame budget, tolerance, weights, acceleration, threads"""
+    """How the solver works: method, max iterations, frame budget, tolerance, weights, Anderson window, threads"""
     bl_label = "Solver"
 
     @classmethod
@@ -150,10 +150,11 @@ class ARAP_PT_solver(SubPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         layout.use_property_decorate = False
-        for name in ("method", "iterations", "live_iterations", "live_frame_ms", "tolerance", "weights", "init"):
+        for name in ("method", "max_iterations", "live_max_iterations", "live_frame_ms", "tolerance", "weights",
+                     "init"):
             layout.prop(s, name)
         if s.method == 'ANDERSON':
-            layout.prop(s, "acceleration")
+            layout.prop(s, "anderson_window")
             unchecked = problem.anderson_unchecked(s)
             if unchecked:
                 layout.label(text="%s: solved with Quasi-Newton" % " and ".join(unchecked), icon='INFO')
