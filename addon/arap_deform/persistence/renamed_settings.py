@@ -60,8 +60,9 @@ def migrate(settings):
 
 def migrate_file():
     """Migrate every local object of the open file (linked ones cannot be written; setting() reads them)."""
+    # Not `"arap" in obj`: since Blender 5.0 the add-on's settings are not among the object's custom properties.
     for obj in bpy.data.objects:
-        if obj.library is None and "arap" in obj:
+        if obj.library is None:
             migrate(obj.arap)
 
 
