@@ -134,8 +134,9 @@ double Solver::Impl::start_iterating(InitialGuess guess, bool resume, bool reuse
   } else if (quasi_newton) {
     // It starts from a point with known energy and gradient. A warm start first
     // carries the moved targets through the mesh with one global step on the
-    // last rotations (as the plain iteration's first step does; contact carries them itself).
-    if (reuse_rotations && !contact.on()) global_step(stats);
+    // last rotations (as the plain iteration's first step does; contact carries them
+    // itself), where the volume term allows it.
+    if (reuse_rotations && !contact.on() && (!volume_term || volume_term->warm_global_step())) global_step(stats);
     previous_energy = stats.initial_energy =
         start_quasi_newton_from_guess(guess == InitialGuess::WarmStart, stats, out_of_time);
   } else if (!reuse_rotations) {

@@ -255,6 +255,27 @@ TEST(VolumeInfill, KeepsMoreVolumeAndCrossSectionThanTheSurface) {
 // vertices of its cells, make every breadth-first level wide, and such a
 // separator makes the factor several times larger (6x here, 17x and a bind of
 // a minute on a 100k-vertex bar). The factor stays near the surface's.
+// After a small handle step, a warm start begins at the last pose with the handles moved, not
+// where a global step on the last rotations throws the stiffened lattice (tens of times the energy).
+TEST(VolumeInfill, AWarmStartBeginsNearTheLastPose) {
+  const Pose p = bent_bar();
+  arap::Solver solver;
+  Options o;
+  o.volume = Volume::Infill;
+  solver.bind(p.mesh.vertices, p.mesh.triangles, p.constrained, o);
+  const arap::SolveStats cold = solver.solve(p.targets);
+  ASSERT_TRUE(cold.converged);
+  Points further = p.targets;
+  const std::size_t fixed = arap::procedural::pick_by_height(p.mesh.vertices).fixed.size();
+  for (Eigen::Index k = static_cast<Eigen::Index>(fixed); k < further.rows(); ++k) further(k, 0) += 0.25;
+  solver.options().init = arap::InitialGuess::WarmStart;
+  const arap::SolveStats warm = solver.solve(further);
+  EXPECT_TRUE(warm.converged);
+  const double settled = warm.energy.back();
+  EXPECT_LT(warm.initial_energy, 3 * settled) << "started at " << warm.initial_energy / settled << " x the settled energy";
+  EXPECT_LT(warm.iterations, cold.iterations);
+}
+
 TEST(VolumeInfill, ALargeMeshBindsWithAFactorNearTheSurfaces) {
   const Pose p = bend(arap::procedural::make_bar_with_vertices(30000), Eigen::RowVector3d(2, 0, -1));
   long nonzeros[2] = {};

@@ -13,6 +13,7 @@ class BulkTerm final : public VolumeTerm {
   double energy(const double* P) const override { return bulk_.energy(P); }
   void add_half_gradient(const double* P, double* g) const override { bulk_.add_half_gradient(P, g); }
   void add_gradient(const double* P, double* gradient) const override { bulk_.add_gradient(P, gradient); }
+  bool warm_global_step() const override { return false; }
 
  private:
   LatticeBulk bulk_;

@@ -31,6 +31,12 @@ class VolumeTerm {
   // gradient += dE/dp for every vertex (#n by 3, internal order).
   virtual void add_gradient(const double*, double*) const {}
 
+  // Whether a warm start should first carry the moved handles through the mesh with one
+  // global step on the last rotations. Not when the factored matrix is only the term's
+  // preconditioner (Infill's stiffened lattice): that step is then no minimiser, and it
+  // throws the lattice far from the last pose, which is the better start.
+  virtual bool warm_global_step() const { return true; }
+
   // Whether the term holds the positions on a constraint set.
   virtual bool constrains() const { return false; }
   // At P: takes the constraint's normal there, and makes the half gradient g that of the Lagrangian.
