@@ -117,6 +117,10 @@ InitialGuess Solver::Impl::prepare_first_guess(const Eigen::Ref<const Points>& g
            last_targets == given;
   const bool cold_quasi_newton = quasi_newton && guess != InitialGuess::WarmStart && options.max_iterations > 0;
   contact.start(guess, resume, cold_quasi_newton, options.threads, state, targets);
+  // Where the volume term refuses the global step on the last rotations, a warm start carries
+  // the handles' move through the mesh by its harmonic extension instead (contact carries it itself).
+  if (quasi_newton && reuse_rotations && !resume && !contact.on() && volume_term && !volume_term->warm_global_step())
+    carry_constrained_to(targets, true);
   apply_targets(targets, state);
   first_guess(guess);
   return guess;

@@ -34,7 +34,8 @@ class VolumeTerm {
   // Whether a warm start should first carry the moved handles through the mesh with one
   // global step on the last rotations. Not when the factored matrix is only the term's
   // preconditioner (Infill's stiffened lattice): that step is then no minimiser, and it
-  // throws the lattice far from the last pose, which is the better start.
+  // throws the lattice far from the last pose (tens of times the settled energy); the
+  // solver carries the move by its harmonic extension instead, L_ff d_f = sum_c w_fc d_c.
   virtual bool warm_global_step() const { return true; }
 
   // Whether the term holds the positions on a constraint set.
