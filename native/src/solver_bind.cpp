@@ -50,7 +50,7 @@ void Solver::bind(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
     scaled = rest / next->unit;
     InfillGraph infill;
     if (options.volume == Volume::Infill) {
-      infill = build_infill(scaled, triangles, options.infill_resolution);
+      infill = build_infill(scaled, triangles, constrained, options.infill_resolution);
       require_bind_memory(rest.rows() + infill.nodes.rows(), kMeshBytesPerVertex, "the infill lattice");
     }
     next->mesh = build_bound_mesh(scaled, triangles, constrained, options.weights, stiffness,

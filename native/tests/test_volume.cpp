@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <limits>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -276,6 +277,73 @@ TEST(VolumeInfill, AWarmStartBeginsNearTheLastPose) {
   EXPECT_LT(warm.initial_energy, 2 * settled)
       << "started at " << warm.initial_energy / settled << " x the settled energy";
   EXPECT_LT(warm.iterations, cold.iterations);
+}
+
+// `p` with every triangle cut into four at its edge midpoints: the same surface, finer. The original
+// vertices keep their indices; a midpoint is constrained when both ends are, with the mean of their
+// targets (the handles here translate, so that is their target too).
+Pose split_at_midpoints(const Pose& p) {
+  const Points& v = p.mesh.vertices;
+  std::map<int, int> slot;  // vertex -> row in constrained / targets
+  for (size_t k = 0; k < p.constrained.size(); ++k) slot[p.constrained[k]] = static_cast<int>(k);
+  std::vector<Eigen::RowVector3d> points, targets;
+  Pose out{{}, p.constrained, {}};
+  for (Eigen::Index r = 0; r < v.rows(); ++r) points.push_back(v.row(r));
+  for (Eigen::Index r = 0; r < p.targets.rows(); ++r) targets.push_back(p.targets.row(r));
+  std::map<std::pair<int, int>, int> midpoint;
+  auto middle = [&](int a, int b) {
+    const auto key = std::minmax(a, b);
+    const auto found = midpoint.find(key);
+    if (found != midpoint.end()) return found->second;
+    const int m = static_cast<int>(points.size());
+    points.push_back(0.5 * (v.row(a) + v.row(b)));
+    if (slot.count(a) && slot.count(b)) {
+      out.constrained.push_back(m);
+      targets.push_back(0.5 * (p.targets.row(slot[a]) + p.targets.row(slot[b])));
+    }
+    return midpoint[key] = m;
+  };
+  std::vector<Eigen::RowVector3i> faces;
+  for (Eigen::Index f = 0; f < p.mesh.triangles.rows(); ++f) {
+    const int a = p.mesh.triangles(f, 0), b = p.mesh.triangles(f, 1), c = p.mesh.triangles(f, 2);
+    const int ab = middle(a, b), bc = middle(b, c), ca = middle(c, a);
+    faces.insert(faces.end(), {{a, ab, ca}, {ab, b, bc}, {ca, bc, c}, {ab, bc, ca}});
+  }
+  out.mesh.vertices.resize(static_cast<Eigen::Index>(points.size()), 3);
+  for (size_t r = 0; r < points.size(); ++r) out.mesh.vertices.row(static_cast<Eigen::Index>(r)) = points[r];
+  out.mesh.triangles.resize(static_cast<Eigen::Index>(faces.size()), 3);
+  for (size_t f = 0; f < faces.size(); ++f) out.mesh.triangles.row(static_cast<Eigen::Index>(f)) = faces[f];
+  out.targets.resize(static_cast<Eigen::Index>(targets.size()), 3);
+  for (size_t r = 0; r < targets.size(); ++r) out.targets.row(static_cast<Eigen::Index>(r)) = targets[r];
+  return out;
+}
+
+// How far the original vertices of `p` move, as a fraction of its bounding box's diagonal, when the
+// same surface is solved with its triangles split at their midpoints.
+double moved_by_splitting(const Pose& p, Volume volume) {
+  const Points coarse = solve(p, volume);
+  const Points fine = solve(split_at_midpoints(p), volume).topRows(coarse.rows());
+  const Points& rest = p.mesh.vertices;
+  const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
+  return (fine - coarse).rowwise().norm().maxCoeff() / diagonal;
+}
+
+// Infill poses the same surface the same way whatever its tessellation, with handles of many
+// vertices or of one; the surface energy alone does not.
+TEST(VolumeInfill, PosesTheSameSurfaceTheSameAtAFinerTessellation) {
+  const Pose bar = bent_bar();
+  EXPECT_LT(moved_by_splitting(bar, Volume::Infill), 0.005);
+  EXPECT_GT(moved_by_splitting(bar, Volume::None), 0.02);
+  // One vertex of the top pulled sideways, the bottom fixed.
+  Pose pulled = bar;
+  const auto picked = arap::procedural::pick_by_height(bar.mesh.vertices);
+  pulled.constrained = picked.fixed;
+  pulled.constrained.push_back(picked.handle.front());
+  pulled.targets.resize(static_cast<Eigen::Index>(pulled.constrained.size()), 3);
+  for (size_t k = 0; k < pulled.constrained.size(); ++k)
+    pulled.targets.row(static_cast<Eigen::Index>(k)) = bar.mesh.vertices.row(pulled.constrained[k]);
+  pulled.targets.bottomRows(1) += Eigen::RowVector3d(0.5, 0, 0);
+  EXPECT_LT(moved_by_splitting(pulled, Volume::Infill), 0.005);
 }
 
 TEST(VolumeInfill, ALargeMeshBindsWithAFactorNearTheSurfaces) {

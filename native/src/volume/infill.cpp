@@ -20,6 +20,10 @@ namespace {
 // kappa and beta of infill.h (how they were chosen: docs/engine_internals.md).
 constexpr double kLatticeStiffness = 10;
 constexpr double kCoupling = 4;
+// A free vertex's binding in all, relative to beta A_v / h^2, and the grip of a
+// cube's constrained vertices on it, relative to its 12 lattice edges (bind_vertices).
+constexpr double kBindingScale = 2;
+constexpr double kHandleGrip = 10;
 // More lattice cubes than this (over all components) is refused: lower the resolution.
 constexpr long kMaxCells = 2000000;
 
@@ -224,40 +228,60 @@ struct PartCubes {
   }
 };
 
-// The corner (bits x, y, z) of largest barycentric weight in the Kuhn
-// tetrahedron holding local coordinates t in [0, 1]^3: the cube split along
-// its main diagonal, by the order of the coordinates.
-int heaviest_kuhn_corner(const Eigen::Vector3d& t) {
+// The Kuhn tetrahedron holding local coordinates t in [0, 1]^3 (the cube split
+// along its main diagonal, by the order of the coordinates): its corners (bits
+// x, y, z) on the path 000 -> a -> ab -> abc and their barycentric weights,
+// which sum to 1 and vary continuously with t.
+struct KuhnTetrahedron {
+  int corner[4];
+  double weight[4];
+};
+
+KuhnTetrahedron kuhn_tetrahedron(const Eigen::Vector3d& t) {
   int axis[3] = {0, 1, 2};
   std::sort(axis, axis + 3, [&](int x, int y) { return t[x] > t[y]; });
-  const double weights[4] = {1 - t[axis[0]], t[axis[0]] - t[axis[1]], t[axis[1]] - t[axis[2]], t[axis[2]]};
-  int corner = 0, bound = 0;
-  double heaviest = weights[0];
-  for (int k = 1; k < 4; ++k) {
-    corner |= 1 << axis[k - 1];  // the Kuhn path 000 -> a -> ab -> abc
-    if (weights[k] > heaviest) heaviest = weights[k], bound = corner;
-  }
-  return bound;
+  KuhnTetrahedron k{{0, 1 << axis[0], (1 << axis[0]) | (1 << axis[1]), 7},
+                    {1 - t[axis[0]], t[axis[0]] - t[axis[1]], t[axis[1]] - t[axis[2]], t[axis[2]]}};
+  return k;
 }
 
-// Each vertex of a part to one corner of its cube, the heaviest of its Kuhn
-// tetrahedron. A vertex whose own cube is not in the lattice uses the nearest
-// lattice cube next to it, its coordinates clamped: its offset, rotated with
-// the lattice, is kept.
+// Each vertex of a part to the corners of the Kuhn tetrahedron of its cube that
+// holds it, one edge per corner weighted by the corner's barycentric weight:
+// the binding moves continuously with the vertex, so a finer tessellation of
+// the same surface binds it the same way. A free vertex binds with
+// kBindingScale beta A_v / h^2 in all (the binding is an integral over the
+// surface). The constrained vertices of a cube share a grip of kHandleGrip
+// times the cube's lattice edge weights instead: a handle of one vertex holds
+// the lattice as firmly as a handle of many at any tessellation, where a grip
+// weighted by area would let go of the lattice as the mesh is refined. A vertex
+// whose own cube is not in the lattice uses the nearest lattice cube next to
+// it, its coordinates clamped: its offset, rotated with the lattice, is kept.
 void bind_vertices(const Eigen::Ref<const Points>& rest, const Parts& parts, const std::vector<int>& members,
-                   const std::vector<Eigen::Vector3i>& vertex_cells, PartCubes& cubes, Lattice& lattice,
-                   InfillGraph& out) {
+                   const std::vector<Eigen::Vector3i>& vertex_cells, const std::vector<char>& constrained,
+                   PartCubes& cubes, Lattice& lattice, InfillGraph& out) {
   const Grid& grid = lattice.grid;
   const int n = static_cast<int>(rest.rows());
+  std::vector<int> cube_of(members.size(), -1);
+  std::unordered_map<int, int> constrained_in_cube;
   for (size_t index = 0; index < members.size(); ++index) {
     const int v = members[index];
     if (!(parts.vertex_area[v] > 0)) continue;
-    const Eigen::Vector3d p = rest.row(v).transpose();
-    const int cube = cubes.cube_of(grid, p, vertex_cells[index]);
-    const Eigen::Vector3d t =
-        ((p - grid.origin) / grid.h - cubes.cells[cube].cast<double>()).cwiseMax(0.0).cwiseMin(1.0);
-    const int corner = cubes.node(lattice, out, cube, heaviest_kuhn_corner(t));
-    out.edges.push_back({v, n + corner, lattice.coupling * parts.vertex_area[v]});
+    cube_of[index] = cubes.cube_of(grid, rest.row(v).transpose(), vertex_cells[index]);
+    if (constrained[v]) ++constrained_in_cube[cube_of[index]];
+  }
+  for (size_t index = 0; index < members.size(); ++index) {
+    const int v = members[index], cube = cube_of[index];
+    if (cube < 0) continue;
+    const double total = constrained[v] ? kHandleGrip * 12 * lattice.edge_weight / constrained_in_cube[cube]
+                                        : kBindingScale * lattice.coupling * parts.vertex_area[v];
+    const Eigen::Vector3d t = ((rest.row(v).transpose() - grid.origin) / grid.h - cubes.cells[cube].cast<double>())
+                                  .cwiseMax(0.0)
+                                  .cwiseMin(1.0);
+    const KuhnTetrahedron k = kuhn_tetrahedron(t);
+    for (int c = 0; c < 4; ++c) {
+      if (!(k.weight[c] > 0)) continue;
+      out.edges.push_back({v, n + cubes.node(lattice, out, cube, k.corner[c]), total * k.weight[c]});
+    }
   }
 }
 
@@ -275,8 +299,10 @@ void write_lattice(const Lattice& lattice, int n, InfillGraph& out) {
 }  // namespace
 
 InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
-                         int resolution) {
+                         const std::vector<int>& constrained, int resolution) {
   InfillGraph out;
+  std::vector<char> is_constrained(static_cast<size_t>(rest.rows()), 0);
+  for (int v : constrained) is_constrained[v] = 1;
   const Parts parts = split_parts(rest, triangles);
   Lattice lattice;
   if (!make_lattice(rest, parts, resolution, lattice)) return out;
@@ -290,7 +316,7 @@ InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<
     const WindingNumber winding(rest, triangles, parts.faces[part]);
     PartCubes cubes(lattice.grid, winding, part_cells(lattice.grid, winding, vertex_cells, budget));
     cubes.add_edges(lattice, out);
-    bind_vertices(rest, parts, members, vertex_cells, cubes, lattice, out);
+    bind_vertices(rest, parts, members, vertex_cells, is_constrained, cubes, lattice, out);
   }
   write_lattice(lattice, static_cast<int>(rest.rows()), out);
   return out;

@@ -18,16 +18,15 @@
 //    kappa h / L / 4 to each of its edges: the graph Laplacian that
 //    discretises (kappa / L) integral |grad f|^2 dV, the same interior
 //    stiffness at every resolution (kappa = 10);
-//  - one coupling edge from each surface vertex v to a corner k of its cube
-//    (the corner of largest barycentric weight in the Kuhn tetrahedron that
-//    holds v), weight beta A_v / h^2 (A_v a third of the area of v's
+//  - coupling edges from each surface vertex v to the four corners of the
+//    Kuhn tetrahedron of its cube that holds it, weighted by their barycentric
+//    weights: 2 beta A_v / h^2 in all (A_v a third of the area of v's
 //    triangles, beta = 4). With the rotations fixed, v's coupling energy is
-//    least at q_k + R (p_v - q_k)_rest: the surface follows the lattice
-//    softly, and rotates with it. One edge rather than the tetrahedron's four
-//    (each weighted by its barycentric weight), which would make most of the
-//    spokes of the local step and most of the factor's fill-in: one edge,
-//    twice as stiff, keeps as much volume and crosses itself less
-//    (docs/engine_internals.md).
+//    least at the weighted mean of q_k + R (p_v - q_k)_rest: the surface
+//    follows the lattice softly, continuously in where v lies, and rotates with
+//    it. The fixed and handle vertices of a cube share a fixed grip on it (10
+//    times its lattice edges) rather than one weighted by their area, so that
+//    a handle holds the lattice the same at any tessellation (docs/volume.md).
 // ARAP alone does not resist volume change more than any change of shape
 // (a material of Poisson's ratio 0): the lattice also carries a bulk term,
 // see infill_volume.h (gamma = kInfillBulk).
@@ -57,7 +56,8 @@ struct InfillGraph {
 };
 
 // Throws arap::Error(InvalidInput) when the lattice would exceed 2 million cubes.
+// `constrained`: the fixed and handle vertices (input indices, checked by the caller).
 InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const Triangles>& triangles,
-                         int resolution);
+                         const std::vector<int>& constrained, int resolution);
 
 }  // namespace arap
