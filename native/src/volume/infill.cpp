@@ -11,6 +11,7 @@
 
 #include "arap/errors.h"
 #include "union_find.h"
+#include "volume/triangle_box.h"
 #include "volume/winding.h"
 
 namespace arap {
@@ -24,6 +25,9 @@ constexpr double kCoupling = 4;
 // cube's constrained vertices on it, relative to its 12 lattice edges (bind_vertices).
 constexpr double kBindingScale = 2;
 constexpr double kHandleGrip = 10;
+// A cube (or a face between two) is inside when the winding number at its centre is at least this:
+// above the 1/2 that points on an open sheet take, which rounding would decide either way.
+constexpr double kInsideWinding = 0.6;
 // More lattice cubes than this (over all components) is refused: lower the resolution.
 constexpr long kMaxCells = 2000000;
 
@@ -88,12 +92,27 @@ Parts split_parts(const Eigen::Ref<const Points>& rest, const Eigen::Ref<const T
   return parts;
 }
 
+// One part's surface: its triangles' corners.
+struct PartSurface {
+  const Eigen::Ref<const Points>& rest;
+  const Eigen::Ref<const Triangles>& triangles;
+  const std::vector<int>& faces;
+  Eigen::Vector3d corner(int f, int k) const { return rest.row(triangles(faces[f], k)).transpose(); }
+};
+
 // The cubes of one part: those of its vertices' box whose centre is inside
-// (|winding number| >= 1/2), then the cubes holding a vertex with no inside
-// cube among its 27 neighbours (thin parts and open sheets get a lattice of
-// their own surface cubes). Sorted: the same lattice on every run.
-std::vector<Eigen::Vector3i> part_cells(const Grid& grid, const WindingNumber& winding,
-                                        const std::vector<Eigen::Vector3i>& vertex_cells, long& budget) {
+// (|winding number| >= kInsideWinding), then the cubes its triangles meet with
+// no inside cube among their 27 neighbours (thin parts and open sheets get a
+// lattice of their own surface cubes), each with the part's triangles that
+// meet it. Which cubes the surface meets depends on the surface, not on how it
+// is cut into triangles. Sorted: the same lattice on every run.
+struct PartCells {
+  std::vector<Eigen::Vector3i> cells;
+  std::unordered_map<CellKey, std::vector<int>> surface;  // surface cube -> triangles (in PartSurface) meeting it
+};
+
+PartCells part_cells(const Grid& grid, const WindingNumber& winding, const PartSurface& part,
+                     const std::vector<Eigen::Vector3i>& vertex_cells, long& budget) {
   Eigen::Vector3i lo = grid.dims, hi = Eigen::Vector3i::Constant(-1);
   for (const Eigen::Vector3i& c : vertex_cells) lo = lo.cwiseMin(c), hi = hi.cwiseMax(c);
   budget -= static_cast<long>(hi.x() - lo.x() + 1) * (hi.y() - lo.y() + 1) * (hi.z() - lo.z() + 1);
@@ -105,21 +124,38 @@ std::vector<Eigen::Vector3i> part_cells(const Grid& grid, const WindingNumber& w
     for (int j = lo.y(); j <= hi.y(); ++j)
       for (int k = lo.z(); k <= hi.z(); ++k) {
         const Eigen::Vector3i c(i, j, k);
-        if (std::abs(winding(grid.corner(c) + Eigen::Vector3d::Constant(0.5 * grid.h))) >= 0.5)
+        if (std::abs(winding(grid.corner(c) + Eigen::Vector3d::Constant(0.5 * grid.h))) >= kInsideWinding)
           inside.emplace(key_of(c), true);
       }
+  PartCells out;
   std::vector<CellKey> keys;
   for (const auto& [key, unused] : inside) keys.push_back(key);
-  for (const Eigen::Vector3i& c : vertex_cells) {
-    bool near_inside = false;
-    for (int q = 0; q < 27 && !near_inside; ++q) near_inside = inside.count(key_of(c + offset(q))) > 0;
-    if (!near_inside) keys.push_back(key_of(c));
+  std::unordered_map<CellKey, bool> near_inside;  // memo
+  auto is_near_inside = [&](const Eigen::Vector3i& c) {
+    const auto [it, fresh] = near_inside.emplace(key_of(c), false);
+    for (int q = 0; q < 27 && fresh && !it->second; ++q) it->second = inside.count(key_of(c + offset(q))) > 0;
+    return it->second;
+  };
+  const double tolerance = 1e-9 * grid.h;
+  for (int f = 0; f < static_cast<int>(part.faces.size()); ++f) {
+    const Eigen::Vector3d a = part.corner(f, 0), b = part.corner(f, 1), c = part.corner(f, 2);
+    const Eigen::Vector3i from = grid.cell_of(a.cwiseMin(b).cwiseMin(c)), to = grid.cell_of(a.cwiseMax(b).cwiseMax(c));
+    for (int i = from.x(); i <= to.x(); ++i)
+      for (int j = from.y(); j <= to.y(); ++j)
+        for (int k = from.z(); k <= to.z(); ++k) {
+          const Eigen::Vector3i cell(i, j, k);
+          const Eigen::Vector3d box = grid.corner(cell);
+          if (is_near_inside(cell) ||
+              !triangle_meets_box(a, b, c, box, box + Eigen::Vector3d::Constant(grid.h), tolerance))
+            continue;
+          std::vector<int>& met = out.surface[key_of(cell)];
+          if (met.empty()) keys.push_back(key_of(cell));
+          met.push_back(f);
+        }
   }
   std::sort(keys.begin(), keys.end());
-  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-  std::vector<Eigen::Vector3i> cells;
-  for (CellKey key : keys) cells.push_back(cell_of_key(key));
-  return cells;
+  for (CellKey key : keys) out.cells.push_back(cell_of_key(key));
+  return out;
 }
 
 // The lattice as it grows, part after part: its nodes, its edges (summed over
@@ -164,8 +200,8 @@ struct PartCubes {
   UnionFind corners;
   std::vector<int> node_of;  // corner slot -> node
 
-  PartCubes(const Grid& grid, const WindingNumber& winding, std::vector<Eigen::Vector3i> part)
-      : cells(std::move(part)), corners(8 * static_cast<int>(cells.size())), node_of(8 * cells.size(), -1) {
+  PartCubes(const Grid& grid, const WindingNumber& winding, const PartSurface& surface, PartCells part)
+      : cells(std::move(part.cells)), corners(8 * static_cast<int>(cells.size())), node_of(8 * cells.size(), -1) {
     for (size_t i = 0; i < cells.size(); ++i) active.emplace(key_of(cells[i]), static_cast<int>(i));
     for (size_t i = 0; i < cells.size(); ++i)
       for (int axis = 0; axis < 3; ++axis) {
@@ -173,13 +209,28 @@ struct PartCubes {
         ++next[axis];
         const auto it = active.find(key_of(next));
         if (it == active.end()) continue;
-        Eigen::Vector3d face = grid.corner(next) + Eigen::Vector3d::Constant(0.5 * grid.h);
-        face[axis] -= 0.5 * grid.h;
-        if (!(std::abs(winding(face)) >= 0.5)) continue;
+        if (!joined(grid, winding, surface, part.surface, cells[i], axis)) continue;
         const int bit = 1 << axis;
         for (int q = 0; q < 8; ++q)
           if (q & bit) corners.join(8 * it->second + (q ^ bit), 8 * static_cast<int>(i) + q);
       }
+  }
+
+  // Whether `cell` and its neighbour along +axis share their face's corners: when the face's centre is
+  // inside, or, for two surface cubes (a thin part, a sheet), when the surface passes through the face.
+  static bool joined(const Grid& grid, const WindingNumber& winding, const PartSurface& surface,
+                     const std::unordered_map<CellKey, std::vector<int>>& met, const Eigen::Vector3i& cell, int axis) {
+    Eigen::Vector3i next = cell;
+    ++next[axis];
+    Eigen::Vector3d lo = grid.corner(next), hi = lo + Eigen::Vector3d::Constant(grid.h);
+    hi[axis] = lo[axis];
+    if (std::abs(winding(0.5 * (lo + hi))) >= kInsideWinding) return true;
+    const auto here = met.find(key_of(cell));
+    if (here == met.end() || !met.count(key_of(next))) return false;
+    for (int f : here->second)
+      if (triangle_meets_box(surface.corner(f, 0), surface.corner(f, 1), surface.corner(f, 2), lo, hi, 1e-9 * grid.h))
+        return true;
+    return false;
   }
 
   // The node at corner q of cube i, made on first use.
@@ -314,7 +365,8 @@ InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<
     std::vector<Eigen::Vector3i> vertex_cells;
     for (int v : members) vertex_cells.push_back(lattice.grid.cell_of(rest.row(v).transpose()));
     const WindingNumber winding(rest, triangles, parts.faces[part]);
-    PartCubes cubes(lattice.grid, winding, part_cells(lattice.grid, winding, vertex_cells, budget));
+    const PartSurface surface{rest, triangles, parts.faces[part]};
+    PartCubes cubes(lattice.grid, winding, surface, part_cells(lattice.grid, winding, surface, vertex_cells, budget));
     cubes.add_edges(lattice, out);
     bind_vertices(rest, parts, members, vertex_cells, is_constrained, cubes, lattice, out);
   }

@@ -6,10 +6,14 @@
 // The lattice: the mesh's bounding box cut into cubes of size h, `resolution`
 // along its longest side L. Per connected part of the surface, a cube belongs
 // to the part when its centre is inside (generalized winding number of the
-// part's triangles, |w| >= 1/2: open, non-manifold and self-intersecting
-// input included, either orientation), or when it holds a vertex of the part
-// that has no inside cube next to it (thin parts and open sheets). Parts get
-// lattices of their own: touching parts are not glued together.
+// part's triangles, |w| >= 0.6: open, non-manifold and self-intersecting
+// input included, either orientation), or when the part's surface meets it
+// and no inside cube is next to it (thin parts and open sheets: "surface
+// cubes"). Two cubes side by side share the corners of the face between them
+// when its centre is inside, or when both are surface cubes and the surface
+// crosses that face. Which cubes a surface meets and which faces it crosses
+// depend on the surface, not on its tessellation. Parts get lattices of their
+// own: touching parts are not glued together.
 //
 // It enters the ARAP energy as more vertices (the cube corners, "nodes") and
 // more edges, so the local step, the Laplacian and the gradient work on it
