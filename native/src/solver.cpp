@@ -119,7 +119,7 @@ InitialGuess Solver::Impl::prepare_first_guess(const Eigen::Ref<const Points>& g
   contact.start(guess, resume, cold_quasi_newton, options.threads, state, targets);
   // Where the volume term refuses the global step on the last rotations, a warm start carries
   // the handles' move through the mesh by its harmonic extension instead (contact carries it itself).
-  if (quasi_newton && reuse_rotations && !resume && !contact.on() && volume_term && !volume_term->warm_global_step())
+  if (quasi_newton && reuse_rotations && !resume && !contact.on() && !warm_start_by_global_step())
     carry_constrained_to(targets, true);
   apply_targets(targets, state);
   first_guess(guess);
@@ -140,7 +140,7 @@ double Solver::Impl::start_iterating(InitialGuess guess, bool resume, bool reuse
     // carries the moved targets through the mesh with one global step on the
     // last rotations (as the plain iteration's first step does; contact carries them
     // itself), where the volume term allows it.
-    if (reuse_rotations && !contact.on() && (!volume_term || volume_term->warm_global_step())) global_step(stats);
+    if (reuse_rotations && !contact.on() && warm_start_by_global_step()) global_step(stats);
     previous_energy = stats.initial_energy =
         start_quasi_newton_from_guess(guess == InitialGuess::WarmStart, stats, out_of_time);
   } else if (!reuse_rotations) {

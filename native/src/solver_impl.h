@@ -72,6 +72,9 @@ struct Solver::Impl final : contact::SolverHooks {
   }
   // The iterates stay on a constraint set.
   bool constrained() const { return volume_term && volume_term->constrains(); }
+  // Whether a warm start carries the handles' move by a global step on the last rotations, or
+  // (where the volume term refuses that step) by the harmonic extension before the iterations start.
+  bool warm_start_by_global_step() const { return !volume_term || volume_term->warm_global_step(); }
   // The plain step can raise the energy: its return onto a constraint is of second order in the step,
   // and the global step does not see the contact barrier. A shorter step then does not.
   bool plain_step_may_rise() const { return constrained() || contact.on(); }

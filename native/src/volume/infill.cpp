@@ -28,6 +28,8 @@ constexpr double kHandleGrip = 10;
 // A cube (or a face between two) is inside when the winding number at its centre is at least this:
 // above the 1/2 that points on an open sheet take, which rounding would decide either way.
 constexpr double kInsideWinding = 0.6;
+// How far (times the cube size) a triangle may miss a cube or a face and still meet it: touching counts.
+constexpr double kMeetTolerance = 1e-9;
 // More lattice cubes than this (over all components) is refused: lower the resolution.
 constexpr long kMaxCells = 2000000;
 
@@ -136,7 +138,6 @@ PartCells part_cells(const Grid& grid, const WindingNumber& winding, const PartS
     for (int q = 0; q < 27 && fresh && !it->second; ++q) it->second = inside.count(key_of(c + offset(q))) > 0;
     return it->second;
   };
-  const double tolerance = 1e-9 * grid.h;
   for (int f = 0; f < static_cast<int>(part.faces.size()); ++f) {
     const Eigen::Vector3d a = part.corner(f, 0), b = part.corner(f, 1), c = part.corner(f, 2);
     const Eigen::Vector3i from = grid.cell_of(a.cwiseMin(b).cwiseMin(c)), to = grid.cell_of(a.cwiseMax(b).cwiseMax(c));
@@ -146,7 +147,7 @@ PartCells part_cells(const Grid& grid, const WindingNumber& winding, const PartS
           const Eigen::Vector3i cell(i, j, k);
           const Eigen::Vector3d box = grid.corner(cell);
           if (is_near_inside(cell) ||
-              !triangle_meets_box(a, b, c, box, box + Eigen::Vector3d::Constant(grid.h), tolerance))
+              !triangle_meets_box(a, b, c, box, box + Eigen::Vector3d::Constant(grid.h), kMeetTolerance * grid.h))
             continue;
           std::vector<int>& met = out.surface[key_of(cell)];
           if (met.empty()) keys.push_back(key_of(cell));
@@ -228,7 +229,8 @@ struct PartCubes {
     const auto here = met.find(key_of(cell));
     if (here == met.end() || !met.count(key_of(next))) return false;
     for (int f : here->second)
-      if (triangle_meets_box(surface.corner(f, 0), surface.corner(f, 1), surface.corner(f, 2), lo, hi, 1e-9 * grid.h))
+      if (triangle_meets_box(surface.corner(f, 0), surface.corner(f, 1), surface.corner(f, 2), lo, hi,
+                             kMeetTolerance * grid.h))
         return true;
     return false;
   }
