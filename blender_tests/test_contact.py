@@ -239,6 +239,7 @@ class SelfContact(unittest.TestCase):
     def test_saved_in_the_blend_and_anderson_solves_with_quasi_newton(self):
         self.obj.arap.contact = True
         self.obj.arap.method = 'ANDERSON'
+        self.obj.arap.volume = 'NONE'     # Self Contact the one setting Anderson cannot carry
         with tempfile.TemporaryDirectory() as tmp:
             path = os.path.join(tmp, "contact.blend")
             bpy.ops.wm.save_as_mainfile(filepath=path)

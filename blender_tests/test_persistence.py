@@ -1,5 +1,6 @@
 # Settings survive save and reload of the .blend; Deform after reload uses the stored bind pose. A .blend saved
-# with the settings' old names (before they were named after the solver's options) keeps its values.
+# with the settings' old names (before they were named after the solver's options) keeps its values, and one
+# saved before Volume Infill became the default keeps Surface Only and its poses.
 import os
 import tempfile
 import unittest
@@ -55,7 +56,7 @@ class RenamedSettings(unittest.TestCase):
     def setUp(self):
         self.tmp = tempfile.TemporaryDirectory()
         self.addCleanup(self.tmp.cleanup)
-        self.problem, self.renamed = U.addon("problem", "renamed_settings")
+        self.problem, self.renamed = U.addon("problem", "older_settings")
 
     def save_old_file(self, name, **new_values):
         """A .blend holding a bar whose settings are under the old names (and `new_values` under the new)."""
@@ -99,7 +100,7 @@ class RenamedSettings(unittest.TestCase):
         U.enable_addon()
         # Blender registers add-ons without the file's data (restricted): a timer migrates it from the event
         # loop, which --background does not run here.
-        renamed = U.addon("renamed_settings")
+        renamed = U.addon("older_settings")
         self.assertTrue(bpy.app.timers.is_registered(renamed._migrate_later))
         renamed._migrate_later()
         self.assert_migrated(bpy.data.objects["Bar"].arap, NEW_SETTINGS)
@@ -118,6 +119,85 @@ class RenamedSettings(unittest.TestCase):
         self.assertEqual((options["max_iterations"], options["anderson_window"]), (1, 7))
         self.assertEqual(self.problem.bind_options(obj.arap)["contact"], "self")
         self.assertEqual(self.renamed.setting(obj.arap, "live_max_iterations"), 3)
+
+
+class ChangedDefaults(unittest.TestCase):
+    """Volume's default is Infill; objects of a file saved before keep the Surface Only they were posed with."""
+
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.addCleanup(self.tmp.cleanup)
+        self.problem, self.older = U.addon("problem", "older_settings")
+
+    def save(self, name, older_version):
+        """Save the open file as `name`; as an older version saved it (without the mark of this one) when
+        `older_version`."""
+        path = os.path.join(self.tmp.name, name)
+        if older_version:
+            bpy.app.handlers.save_pre.remove(self.older._on_save)
+            try:
+                for obj in bpy.data.objects:
+                    obj.arap.property_unset("saved_with")
+                bpy.ops.wm.save_as_mainfile(filepath=path)
+            finally:
+                bpy.app.handlers.save_pre.append(self.older._on_save)
+        else:
+            bpy.ops.wm.save_as_mainfile(filepath=path)
+        return path
+
+    def posed_bar(self, volume=None):
+        U.clear_scene()
+        obj, empty, _fixed, _top = U.bar_with_handle()
+        if volume is not None:
+            obj.arap.volume = volume
+        empty.location.x += 0.6
+        return obj
+
+    def deform(self, obj):
+        bpy.context.view_layer.objects.active = obj
+        self.assertEqual(bpy.ops.object.arap_deform(), {'FINISHED'})
+        return U.coords(obj)
+
+    def test_a_new_object_is_posed_with_infill(self):
+        obj = self.posed_bar()
+        self.assertEqual(obj.arap.volume, 'INFILL')
+        self.assertEqual(self.problem.bind_options(obj.arap)["volume"], "infill")
+
+    def test_an_older_file_keeps_surface_only_and_its_pose_bit_for_bit(self):
+        surface = self.deform(self.posed_bar('NONE'))    # the pose the older version made
+        obj = self.posed_bar()
+        obj.arap.property_unset("volume")                # left at the default of its time
+        bpy.ops.wm.open_mainfile(filepath=self.save("older.blend", older_version=True))
+        obj = bpy.data.objects["Bar"]
+        self.assertEqual(obj.arap.volume, 'NONE')
+        np.testing.assert_array_equal(self.deform(obj), surface)
+        # Saved again and reopened, it stays Surface Only.
+        bpy.ops.wm.open_mainfile(filepath=self.save("resaved.blend", older_version=False))
+        self.assertEqual(bpy.data.objects["Bar"].arap.volume, 'NONE')
+
+    def test_a_file_of_this_version_keeps_the_infill_default(self):
+        self.posed_bar()
+        bpy.ops.wm.open_mainfile(filepath=self.save("new.blend", older_version=False))
+        obj = bpy.data.objects["Bar"]
+        self.assertFalse(obj.arap.is_property_set("volume"))
+        self.assertEqual(obj.arap.volume, 'INFILL')
+
+    def test_an_object_without_arap_settings_takes_the_new_default(self):
+        U.clear_scene()
+        U.add_cylinder()
+        bpy.ops.wm.open_mainfile(filepath=self.save("plain.blend", older_version=True))
+        self.assertEqual(bpy.data.objects["Bar"].arap.volume, 'INFILL')
+
+    def test_a_linked_object_of_an_older_file_is_read_as_surface_only(self):
+        self.posed_bar()
+        library = self.save("library.blend", older_version=True)
+        U.clear_scene()
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(self.tmp.name, "shot.blend"))
+        with bpy.data.libraries.load(library, link=True) as (_src, dst):
+            dst.objects = ["Bar"]
+        obj = dst.objects[0]
+        self.older.migrate_file()     # a library cannot be written
+        self.assertEqual(self.problem.bind_options(obj.arap)["volume"], "none")
 
 
 if __name__ == "__main__":

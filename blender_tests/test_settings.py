@@ -54,7 +54,9 @@ NOT_OPTIONS = {
     SETTINGS: {"auto", "auto_status", "fixed_group", "handles", "active_handle", "stiff_group", "stiffness",
                "output", "live_interval",
                # Live's frame budget: the time_budget_ms of each update, where the table's 0 (no limit) is no choice.
-               "live_frame_ms"},
+               "live_frame_ms",
+               # The mark this version writes on save (persistence/older_settings.py).
+               "saved_with"},
     "ARAP_PG_handle": {"group", "empty", "bind_matrix", "has_bind"},
     "object.arap_add_handle_from_selection": {"group_name"},
     "object.arap_bake": {"frame_start", "frame_end", "output", "filepath"},

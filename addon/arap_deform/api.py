@@ -44,7 +44,7 @@ import bpy
 import numpy as np
 
 from . import native_loader
-from .persistence import renamed_settings
+from .persistence import older_settings
 from .solver import deform_job, problem, solver_cache
 from .solver.deform_job import DeformResult  # noqa: F401
 from .errors import SessionError, SetupError  # noqa: F401
@@ -138,7 +138,7 @@ def deform(obj, max_iterations=None, tolerance=None, init=None, scene=None, iter
     max_iterations= (a DeprecationWarning).
     """
     _registered()
-    max_iterations = renamed_settings.max_iterations_argument(max_iterations, iterations)
+    max_iterations = older_settings.max_iterations_argument(max_iterations, iterations)
     return deform_job.deform(obj, scene=scene, max_iterations=max_iterations, tolerance=tolerance, init=init)
 
 
@@ -173,7 +173,7 @@ def start_session(obj, scene=None, max_iterations=None, write=True, iterations=N
     object-local) after each step, e.g. to bake frames.
     """
     _registered()
-    max_iterations = renamed_settings.max_iterations_argument(max_iterations, iterations)
+    max_iterations = older_settings.max_iterations_argument(max_iterations, iterations)
     return LiveSession(obj, scene=scene, max_iterations=max_iterations, write=write)
 
 

@@ -3,7 +3,8 @@
 #
 #   blender --background --factory-startup -noaudio --python-exit-code 1 \
 #       --python bench/blender/bench_live.py -- [--addon-dir BUILD/addon] \
-#       [--sizes 10000,50000,200000] [--frames 30] [--iterations 2] [--lap-budget 60] [--output DIR]
+#       [--sizes 10000,50000,200000] [--frames 30] [--iterations 2] [--lap-budget 60] [--output DIR] \
+#       [--volumes infill,none]
 #
 # --addon-dir: the folder holding the staged arap_deform package (BUILD/addon);
 # without it the add-on is enabled from BLENDER_USER_SCRIPTS.
@@ -18,6 +19,7 @@
 # left alone; measured from its last move until step(force=False) returns None
 # (settled): updates, CPU ms (time.thread_time) and wall ms of those updates,
 # the distance to the converged pose, and the CPU of an idle update.
+# --volumes: the Volume settings measured in turn, in one run (ratios to the first).
 # Not part of ctest (its name is not test_*.py). Writes blender_live.md / .json.
 import argparse
 import json
@@ -47,13 +49,14 @@ def parse_args():
                    help="seconds of Laplacian Deform frames per size; it stops after that (3 frames at least)")
     p.add_argument("--settle-sizes", default="10000,50000,250000")
     p.add_argument("--output", default="results")
+    p.add_argument("--volumes", default="infill", help="Volume settings (native names), measured in turn")
     return p.parse_args(argv)
 
 
 
 
-def posed_tube(api, name, vertices):
-    """The tube with its ARAP set-up: bottom fifth fixed, top 5 % on an Empty at the top centre."""
+def posed_tube(api, name, vertices, volume):
+    """The tube with its ARAP set-up: bottom fifth fixed, top 5 % on an Empty at the top centre, Volume `volume`."""
     obj, fixed, top, h = make_tube(name + "Tube", vertices)
     add_group(obj, "fixed", fixed)
     add_group(obj, "top", top)
@@ -62,11 +65,12 @@ def posed_tube(api, name, vertices):
     bpy.context.view_layer.update()
     api.set_fixed(obj, "fixed")
     api.add_handle(obj, "top", empty)
+    obj.arap.volume = volume.upper()
     return obj, empty, start, h
 
 
-def bench_ours(api, vertices, frames, iterations):
-    obj, empty, start, h = posed_tube(api, "Arap", vertices)
+def bench_ours(api, vertices, frames, iterations, volume):
+    obj, empty, start, h = posed_tube(api, "Arap", vertices, volume)
     t = time.perf_counter()
     session = api.start_session(obj, bpy.context.scene, max_iterations=iterations)
     bind_ms = (time.perf_counter() - t) * 1e3
@@ -80,11 +84,12 @@ def bench_ours(api, vertices, frames, iterations):
             wall.append((time.perf_counter() - t) * 1e3)
             solve.append(stats.solve_ms)
     session.finish()
-    return {"vertices": len(obj.data.vertices), "bind_ms": bind_ms, "frame_ms": wall, "solve_ms": solve}
+    return {"vertices": len(obj.data.vertices), "bind_ms": bind_ms, "frame_ms": wall, "solve_ms": solve,
+            "volume": volume}
 
 
-def bench_settle(api, vertices, drag_updates=10, timer_interval_ms=1000.0 / 30.0):
-    obj, empty, start, h = posed_tube(api, "Settle", vertices)
+def bench_settle(api, vertices, volume, drag_updates=10, timer_interval_ms=1000.0 / 30.0):
+    obj, empty, start, h = posed_tube(api, "Settle", vertices, volume)
     session = api.start_session(obj, bpy.context.scene)  # the object's (default) Live settings
     session.step()
     while session.step(force=False) is not None:  # settle at rest first
@@ -124,7 +129,7 @@ def bench_settle(api, vertices, drag_updates=10, timer_interval_ms=1000.0 / 30.0
             "viewport_ms_at_30hz": viewport_ms, "idle_update_cpu_ms": idle_cpu_ms,
             "idle_cpu_percent_at_30hz": 100.0 * idle_cpu_ms / timer_interval_ms,
             "max_distance_to_converged": gap, "height": h,
-            "frame_budget_ms": obj.arap.live_frame_ms, "method": obj.arap.method}
+            "frame_budget_ms": obj.arap.live_frame_ms, "method": obj.arap.method, "volume": volume}
 
 
 def bench_laplacian(vertices, frames, iterations, budget_s):
@@ -162,10 +167,11 @@ def main():
     args = parse_args()
     U.load_addon(args.addon_dir)
     api = U.addon("api")
+    volumes = [v for v in args.volumes.split(",") if v]
     rows = []
-    for n in [int(x) for x in args.sizes.split(",") if x]:
+    for n, volume in [(int(x), v) for x in args.sizes.split(",") if x for v in volumes]:
         U.clear_scene()
-        ours = bench_ours(api, n, args.frames, args.iterations)
+        ours = bench_ours(api, n, args.frames, args.iterations, volume)
         U.clear_scene()
         lap = bench_laplacian(n, args.frames, args.iterations, args.lap_budget)
         U.clear_scene()
@@ -174,19 +180,19 @@ def main():
                "laplacian_frame": summary(lap["frame_ms"])}
         row["ratio"] = row["ours_frame"]["median"] / row["laplacian_frame"]["median"]
         rows.append(row)
-        print("%7d vertices: ours bind %.1f ms, frame %.2f ms (solve %.2f) | Laplacian Deform bind %.1f ms, "
-              "frame %.2f ms | ratio %.2f" % (ours["vertices"], ours["bind_ms"], row["ours_frame"]["median"],
+        print("%7d vertices, %s: ours bind %.1f ms, frame %.2f ms (solve %.2f) | Laplacian Deform bind %.1f ms, "
+              "frame %.2f ms | ratio %.2f" % (ours["vertices"], volume, ours["bind_ms"], row["ours_frame"]["median"],
                                              row["ours_solve"]["median"], lap["bind_ms"],
                                              row["laplacian_frame"]["median"], row["ratio"]), flush=True)
 
     settle = []
-    for n in [int(x) for x in args.settle_sizes.split(",") if x]:
+    for n, volume in [(int(x), v) for x in args.settle_sizes.split(",") if x for v in volumes]:
         U.clear_scene()
-        r = bench_settle(api, n)
+        r = bench_settle(api, n, volume)
         settle.append(r)
-        print("%7d vertices: settled %d updates after the last move, %.0f ms CPU (%.0f ms wall; %.0f ms in a 30 Hz "
-              "viewport), idle update %.4f ms CPU (%.3f %% of a core at 30 Hz), %.1e from the converged pose"
-              % (r["vertices"], r["updates"], r["cpu_ms"], r["wall_ms"], r["viewport_ms_at_30hz"],
+        print("%7d vertices, %s: settled %d updates after the last move, %.0f ms CPU (%.0f ms wall; %.0f ms in a "
+              "30 Hz viewport), idle update %.4f ms CPU (%.3f %% of a core at 30 Hz), %.1e from the converged pose"
+              % (r["vertices"], volume, r["updates"], r["cpu_ms"], r["wall_ms"], r["viewport_ms_at_30hz"],
                  r["idle_update_cpu_ms"], r["idle_cpu_percent_at_30hz"], r["max_distance_to_converged"]), flush=True)
 
     os.makedirs(args.output, exist_ok=True)
@@ -199,13 +205,13 @@ def main():
         f.write("Open tube, bottom fifth fixed, top 5 %% on an Empty moved sideways up to 0.3 h over %d frames; "
                 "%d iteration(s) per frame for both. ms from the empty's move until the mesh is up to date: "
                 "median [quartiles].\n\n" % (args.frames, args.iterations))
-        f.write("| V | ours bind | ours frame | ours solve | LapDeform bind | LapDeform frame | LapDeform frames "
+        f.write("| V | volume | ours bind | ours frame | ours solve | LapDeform bind | LapDeform frame | LapDeform frames "
                 "| ours/LapDeform |\n")
-        f.write("|---:|---:|---:|---:|---:|---:|---:|---:|\n")
+        f.write("|---:|---|---:|---:|---:|---:|---:|---:|---:|\n")
         for r in rows:
             o, s, l = r["ours_frame"], r["ours_solve"], r["laplacian_frame"]
-            f.write("| %d | %.1f | %.2f [%.2f–%.2f] | %.2f | %.1f | %.2f [%.2f–%.2f] | %d | %.3f |\n" % (
-                r["ours"]["vertices"], r["ours"]["bind_ms"], o["median"], o["p25"], o["p75"], s["median"],
+            f.write("| %d | %s | %.1f | %.2f [%.2f–%.2f] | %.2f | %.1f | %.2f [%.2f–%.2f] | %d | %.3f |\n" % (
+                r["ours"]["vertices"], r["ours"]["volume"], r["ours"]["bind_ms"], o["median"], o["p25"], o["p75"], s["median"],
                 r["laplacian"]["bind_ms"], l["median"], l["p25"], l["p75"], len(r["laplacian"]["frame_ms"]),
                 r["ratio"]))
         if settle:
@@ -216,11 +222,11 @@ def main():
                     "costs, and the largest distance of the settled pose from the converged pose (the same "
                     "solver continued to tolerance 1e-10), relative to the tube's height.\n\n"
                     % (settle[0]["method"], settle[0]["frame_budget_ms"]))
-            f.write("| V | updates | CPU ms | wall ms | at 30 Hz | idle update (CPU ms) | idle CPU at 30 Hz "
-                    "| distance / h |\n|---:|---:|---:|---:|---:|---:|---:|---:|\n")
+            f.write("| V | volume | updates | CPU ms | wall ms | at 30 Hz | idle update (CPU ms) | idle CPU at 30 Hz "
+                    "| distance / h |\n|---:|---|---:|---:|---:|---:|---:|---:|---:|\n")
             for r in settle:
-                f.write("| %d | %d | %.0f | %.0f | %.0f | %.4f | %.3f %% | %.1e |\n" % (
-                    r["vertices"], r["updates"], r["cpu_ms"], r["wall_ms"], r["viewport_ms_at_30hz"],
+                f.write("| %d | %s | %d | %.0f | %.0f | %.0f | %.4f | %.3f %% | %.1e |\n" % (
+                    r["vertices"], r["volume"], r["updates"], r["cpu_ms"], r["wall_ms"], r["viewport_ms_at_30hz"],
                     r["idle_update_cpu_ms"], r["idle_cpu_percent_at_30hz"],
                     r["max_distance_to_converged"] / r["height"]))
     print("wrote %s" % os.path.join(args.output, "blender_live.md"))

@@ -62,7 +62,8 @@ Solver options (the defaults solve until the pose has settled):
                         itself, parts stay a gap apart (docs/contact.md);
                         quasi-newton or local-global
   The textbook iteration of the paper, e.g. to compare energies with other
-  implementations: --method local-global --max-iterations N --tolerance 0.
+  implementations: --volume none --method local-global --max-iterations N
+  --tolerance 0 (with a volume mode, local-global runs quasi-newton).
   The flags are named after the solver's options; --iterations and --anderson
   are accepted as the short forms of --max-iterations and --anderson-window.
 
@@ -85,14 +86,17 @@ const std::map<std::string, std::vector<const char*>> kChoiceNotes = {
       "al. 2017): 4-5x less CPU to the same", "minimum than local-global"}},
     {"local-global",
      {"the textbook alternation of Sorkine &", "Alexa 2007, one local and one global step", "per iteration"}},
-    {"anderson", {"local-global with Anderson acceleration", "(Peng et al. 2018), window --anderson-window M"}},
-    {"none", {"surface ARAP only"}},
+    {"anderson",
+     {"local-global with Anderson acceleration", "(Peng et al. 2018), window --anderson-window M;",
+      "solves Surface Only unless --volume is given"}},
+    {"none", {"surface ARAP only (the paper's energy): its", "pose depends on the tessellation"}},
     {"global",
      {"the enclosed volume of every closed part kept", "exactly (open parts are left alone);",
       "quasi-newton or local-global"}},
     {"infill",
      {"a coarse lattice filling the inside, posed", "as-rigid-as-possible with the surface bound",
-      "to it: keeps local volume and cross-sections,", "on any mesh (open ones too)"}},
+      "to it: keeps local volume and cross-sections,", "on any mesh (open ones too), and the same",
+      "pose at any tessellation"}},
 };
 
 // --init warm: one solve has no previous solution to start from.
@@ -256,7 +260,7 @@ Eigen::Vector3d parse_vector(const std::string& flag, const std::string& s) {
 
 DeformArgs parse_deform_args(int argc, const char* const* argv) {
   DeformArgs a;
-  bool method_given = false, infill_resolution_given = false;
+  bool method_given = false, infill_resolution_given = false, volume_given = false;
   std::string anderson_flag;  // the spelling of the Anderson window's flag given, if any
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
@@ -295,6 +299,7 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
       method_given = method_given || arg == "--method";
       if (std::string(option) == "anderson_window") anderson_flag = arg;
       infill_resolution_given = infill_resolution_given || arg == "--infill-resolution";
+      volume_given = volume_given || arg == "--volume";
     } else if (arg == "--output" || arg == "-o") {
       a.output = value();
     } else if (arg == "--report") {
@@ -311,6 +316,7 @@ DeformArgs parse_deform_args(int argc, const char* const* argv) {
   if (a.help) return a;
   // --anderson-window M (or --anderson M) alone keeps its old meaning: the Anderson-accelerated alternation.
   if (!anderson_flag.empty() && !method_given) a.options.method = Method::Anderson;
+  if (!volume_given) surface_only_for_anderson(a.options);
   if (!anderson_flag.empty() && a.options.method != Method::Anderson)
     throw UsageError(anderson_flag + " applies to --method anderson only");
   if (infill_resolution_given && a.options.volume != Volume::Infill)

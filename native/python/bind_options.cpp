@@ -44,6 +44,14 @@ arap::Options with_options(arap::Options o, const py::kwargs& kwargs) {
   return o;
 }
 
+arap::Options bind_options(const py::kwargs& kwargs) {
+  arap::Options o;
+  for (const auto& [key, value] : kwargs) set_option_from_python(o, py::cast<std::string>(key), value);
+  if (!kwargs.contains("volume")) arap::surface_only_for_anderson(o);
+  arap::check_options(o);
+  return o;
+}
+
 arap::Options with_unbound_options(const arap::Options& bound, const py::kwargs& kwargs) {
   const arap::Options o = with_options(bound, kwargs);
   for (const arap::OptionSpec& spec : arap::option_specs())
@@ -91,7 +99,8 @@ void bind_option_table(py::module_& m) {
   m.attr("OPTIONS") = specs;
 }
 
-// method_conflicts(**options): the options (the others at their defaults) that cannot be combined with the method,
+// method_conflicts(**options): the options (the others at their defaults, the volume as bind() takes it) that cannot
+// be combined with the method,
 // [(option, value, reason)], by arap::method_conflicts(); each option's own limits are checked as configure() does.
 void bind_method_conflicts(py::module_& m) {
   m.def(
@@ -99,6 +108,7 @@ void bind_method_conflicts(py::module_& m) {
       [](const py::kwargs& kwargs) {
         arap::Options o;
         for (const auto& [key, value] : kwargs) set_option_from_python(o, py::cast<std::string>(key), value);
+        if (!kwargs.contains("volume")) arap::surface_only_for_anderson(o);  // as bind_options() takes it
         py::list found;
         for (const arap::OptionConflict& c : arap::method_conflicts(o))
           found.append(py::make_tuple(c.option, c.value, c.reason));

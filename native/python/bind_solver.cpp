@@ -30,7 +30,7 @@ void bind(arap::Solver& s, const py::array& rest, const py::array& triangles, co
     if (a.ndim() != 1) throw py::value_error("stiffness: expected a flat array, one value per vertex");
     stiff.assign(a.data(), a.data() + a.size());
   }
-  const arap::Options o = with_options(arap::Options(), options);
+  const arap::Options o = bind_options(options);
   idle(s);
   py::gil_scoped_release release;
   s.bind(r.map(), tri, con, o, stiff);

@@ -35,6 +35,9 @@ void bind_method_conflicts(py::module_& m);
 // `options` with `kwargs` (option names) applied, checked as a whole: the
 // solver keeps its options unless every one is valid (bind_options.cpp).
 arap::Options with_options(arap::Options options, const py::kwargs& kwargs);
+// The options of bind(**kwargs): the defaults, `kwargs` set, and Surface Only for a method anderson given
+// without a volume mode (arap::surface_only_for_anderson); checked.
+arap::Options bind_options(const py::kwargs& kwargs);
 // The same for options bound with `bound`: refuses a change to one fixed at bind() (bind_options.cpp).
 arap::Options with_unbound_options(const arap::Options& bound, const py::kwargs& kwargs);
 

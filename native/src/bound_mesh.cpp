@@ -212,21 +212,30 @@ void assemble_free_laplacian(BoundMesh& m, const std::vector<int>& slot_of, bool
   // only a lattice has lattice edges: both are skipped when they cannot apply.
   int p = 0;
   outer[0] = 0;
+  std::vector<std::pair<int, double>> scratch;
   for (int r = 0; r < nf; ++r) {
     const int i = m.free_vertices[r];
     double diagonal = 0;
     const int column_begin = p;
+    const bool long_column = m.spoke_begin[i + 1] - m.spoke_begin[i] >= kInsertionColumn;
+    auto put = [&](int row, double value) {
+      if (long_column)
+        inner[p] = row, values[p++] = value;
+      else
+        insert_sorted(inner, values, column_begin, p, row, value);
+    };
     for (int k = m.spoke_begin[i]; k < m.spoke_begin[i + 1]; ++k) {
       const int j = m.neighbor[k];
       double w = stiff ? m.spokes[k].w * 0.5 * (m.stiffness[i] + m.stiffness[j]) : m.spokes[k].w;
       if (infill && m.order[i] >= m.input_n && m.order[j] >= m.input_n) w *= lattice_scale;
       diagonal += w;
       if (m.free_row[j] >= 0)
-        insert_sorted(inner, values, column_begin, p, m.free_row[j], -w);
+        put(m.free_row[j], -w);
       else
         m.couplings.push_back({r, slot_of[j], w});
     }
-    insert_sorted(inner, values, column_begin, p, r, diagonal);
+    put(r, diagonal);
+    if (long_column) sort_column(inner, values, column_begin, p, scratch);
     outer[r + 1] = p;
   }
   m.laplacian_ff.resizeNonZeros(p);  // no reallocation: only the count shrinks
@@ -260,6 +269,25 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
   build_spokes(m, graph);
   assemble_free_laplacian(m, slot_of, !stiffness.empty(), infill);
   return m;
+}
+
+// Minimum degree spends most of its time on the lattice nodes, each joined to
+// the thousands of surface vertices of its cubes; ordered after the surface
+// they cost nothing to order. But eliminating the surface first joins every
+// node bound to it, and each surface column takes the nodes its subtree
+// reaches (about nodes x sqrt(rows) entries in all): with many nodes the
+// factor holds more than minimum degree's, and every iteration's solve pays
+// for it. Hence at most kLastLatticeRows sqrt(the surface's free rows) nodes
+// (the figures: docs/engine_internals.md).
+constexpr double kLastLatticeRows = 0.5;
+
+std::vector<int> lattice_rows_to_order_last(const BoundMesh& m) {
+  std::vector<int> rows;
+  for (size_t r = 0; r < m.free_vertices.size(); ++r)
+    if (m.order[m.free_vertices[r]] >= m.input_n) rows.push_back(static_cast<int>(r));
+  const double surface_rows = static_cast<double>(m.free_vertices.size() - rows.size());
+  if (static_cast<double>(rows.size()) > kLastLatticeRows * std::sqrt(surface_rows)) rows.clear();
+  return rows;
 }
 
 void to_internal(const BoundMesh& m, const Eigen::Ref<const Points>& input, Points& internal) {

@@ -71,6 +71,12 @@ BoundMesh build_bound_mesh(const Eigen::Ref<const Points>& rest, const Eigen::Re
                            const std::vector<int>& constrained, Weights weights,
                            const std::vector<double>& stiffness, const InfillGraph* infill = nullptr);
 
+// The free rows of Volume::Infill's lattice nodes, in increasing order, for
+// the factorization to order after the surface's (BlockCholesky::factor's
+// last_rows) when they are few next to the surface's (see bound_mesh.cpp).
+// Empty otherwise, and without a lattice.
+std::vector<int> lattice_rows_to_order_last(const BoundMesh& m);
+
 // Rows of P moved between input and internal order. to_internal writes the
 // mesh's vertices and keeps `internal`'s lattice rows (the rest shape's when
 // it has not #n rows); to_input writes the mesh's vertices only.

@@ -275,6 +275,10 @@ std::vector<OptionConflict> method_conflicts(const Options& options) {
   return found;
 }
 
+void surface_only_for_anderson(Options& options) {
+  if (options.method == Method::Anderson) options.volume = Volume::None;
+}
+
 std::optional<OptionConflict> method_conflict(const Options& options) {
   const std::vector<OptionConflict> found = method_conflicts(options);
   if (found.empty()) return std::nullopt;

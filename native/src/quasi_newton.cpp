@@ -71,6 +71,7 @@ void Solver::Impl::start_quasi_newton(SolveStats& stats) {
   qn_x.resize(nf3), qn_g.resize(nf3), qn_d.resize(nf3);
   lbfgs.reset(kQuasiNewtonHistory, static_cast<Eigen::Index>(nf3));
   gather_free(qn_x);
+  pose_stop.start(options.tolerance * pose_stop_scale);
   const auto t = Clock::now();
   half_gradient(mesh, state.data(), rotations.data(), qn_g.data(), options.threads);
   if (volume_term) volume_term->add_half_gradient(state.data(), qn_g.data());
@@ -217,6 +218,7 @@ void Solver::Impl::accept_step(double alpha, SolveStats& stats) {
                   sums[half][0] = sy, sums[half][1] = ss, sums[half][2] = yy;
                 });
   const double sy = sums[0][0] + sums[1][0], ss = sums[0][1] + sums[1][1], yy = sums[0][2] + sums[1][2];
+  if (pose_stop.on()) pose_stop.record(largest_row(s, static_cast<long>(mesh.free_vertices.size())));
   if (qn_history && lbfgs.commit(sy, ss, yy))
     lbfgs.set_h0_scale(std::clamp(squared_norm_in(mesh.laplacian_ff, s, options.threads) / sy, 1.0, kMaxH0Scale));
   if (constrained()) gather_free(qn_x);  // exactly where the step landed (x + s rounds)
@@ -226,7 +228,8 @@ void Solver::Impl::accept_step(double alpha, SolveStats& stats) {
 // One iteration: the step, then the next direction, so that the stop can look
 // at it: settled when this step lowered the energy by at most the tolerance and
 // the next one is predicted to lower it by no more (a small step alone can be a
-// short line-search step far from the minimum), or when contact says so.
+// short line-search step far from the minimum), and where the volume term asks
+// for it, the pose is near its limit (pose_stop.h); or when contact says so.
 double Solver::Impl::quasi_newton_iteration(double previous_energy, SolveStats& stats) {
   const double tolerance = options.tolerance;
   bool stuck = false;
@@ -234,7 +237,7 @@ double Solver::Impl::quasi_newton_iteration(double previous_energy, SolveStats& 
   const double e = quasi_newton_step(previous_energy, qn_slope, stuck, stats);
   qn_slope = quasi_newton_direction(stats);
   const bool small_step = previous_energy - e <= tolerance * std::abs(previous_energy);
-  stats.converged = stuck || (small_step && -0.5 * qn_slope <= tolerance * std::abs(e));
+  stats.converged = stuck || (small_step && -0.5 * qn_slope <= tolerance * std::abs(e) && pose_stop.settled());
   const bool settled = contact.after_iteration(stats.contact_steps_cut > cut_before, small_step);
   stats.converged = stats.converged || settled;
   return e;

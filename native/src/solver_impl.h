@@ -18,6 +18,7 @@
 #include "initial_guess.h"
 #include "lbfgs.h"
 #include "linalg/spd_solve.h"
+#include "pose_stop.h"
 #include "runtime/stopwatch.h"
 #include "volume/volume_term.h"
 
@@ -64,6 +65,10 @@ struct Solver::Impl final : contact::SolverHooks {
   // (a constraint's: the Lagrangian's).
   std::unique_ptr<VolumeTerm> volume_term;
   contact::ContactSolve contact;
+  // The stop on the pose, where the volume term asks for it: its distance per unit of
+  // Options::tolerance (internal units; 0: off), from the rest shape's bounding-box diagonal.
+  PoseStop pose_stop;
+  double pose_stop_scale = 0;
 
   // The volume terms and contact run on the quasi-Newton path (local/global: without its history).
   bool runs_quasi_newton() const {
@@ -75,9 +80,9 @@ struct Solver::Impl final : contact::SolverHooks {
   // Whether a warm start carries the handles' move by a global step on the last rotations, or
   // (where the volume term refuses that step) by the harmonic extension before the iterations start.
   bool warm_start_by_global_step() const { return !volume_term || volume_term->warm_global_step(); }
-  // The plain step can raise the energy: its return onto a constraint is of second order in the step,
-  // and the global step does not see the contact barrier. A shorter step then does not.
-  bool plain_step_may_rise() const { return constrained() || contact.on(); }
+  // The plain step can raise the energy: where the volume term says so (volume_term.h), and
+  // the global step does not see the contact barrier. A shorter step then does not.
+  bool plain_step_may_rise() const { return (volume_term && volume_term->plain_step_may_rise()) || contact.on(); }
   VolumeTerm::LaplacianSolve laplacian_solve(SolveStats& stats);
 
   void gather_free(std::vector<double>& out) const;

@@ -147,6 +147,49 @@ TEST(BlockCholesky, HubsInAMatrixOfHundredsOfThousandsOfRowsAreOrderedSafely) {
   EXPECT_LT((A * x - b).norm(), 1e-10 * b.norm());
 }
 
+// Hubs given as last_rows (as Volume Infill's lattice nodes are): the other
+// rows are split and ordered as a matrix of their own, the hubs come after
+// the separator, and the factor solves like Eigen's on one thread and two.
+TEST(BlockCholesky, LastRowsComeAfterTheSplitSurface) {
+  const Sparse surface = mesh_matrix(arap::procedural::make_bar_with_vertices(24000), 1e-4, 16);
+  const int m = static_cast<int>(surface.rows()), hubs = 20;
+  const int n = m + hubs;
+  std::vector<Eigen::Triplet<double>> t;
+  for (int j = 0; j < m; ++j)
+    for (Sparse::InnerIterator it(surface, j); it; ++it) t.emplace_back(it.row(), j, it.value());
+  auto couple = [&](int a, int b, double w) {
+    t.emplace_back(a, b, -w), t.emplace_back(b, a, -w), t.emplace_back(a, a, w), t.emplace_back(b, b, w);
+  };
+  // Hub h bound to a run of m / hubs rows, and to the next hub.
+  for (int h = 0; h < hubs; ++h) {
+    for (int k = 0; k < m / hubs; ++k) couple(m + h, h * (m / hubs) + k, 0.3);
+    if (h + 1 < hubs) couple(m + h, m + h + 1, 1.0);
+  }
+  Sparse A(n, n);
+  A.setFromTriplets(t.begin(), t.end());
+  std::vector<int> last(hubs);
+  for (int h = 0; h < hubs; ++h) last[h] = m + h;
+  arap::BlockCholesky whole, split;
+  ASSERT_TRUE(whole.factor(A));
+  EXPECT_EQ(whole.first_half(), n);  // the hubs make every level wide: not split
+  ASSERT_TRUE(split.factor(A, arap::BlockCholesky::Kernel::Supernodal, 1, arap::BlockCholesky::Ordering::Amd,
+                           nullptr, last));
+  EXPECT_GT(split.first_half(), 0);
+  EXPECT_GT(split.second_half(), 0);
+  EXPECT_LT(split.first_half() + split.second_half() + hubs, n);
+  const Eigen::MatrixXd b = random_rhs(n, 17);
+  Eigen::SimplicialLDLT<Sparse> reference(A);
+  ASSERT_EQ(reference.info(), Eigen::Success);
+  const Eigen::MatrixXd x = solve(split, b, 1);
+  EXPECT_LT((x - reference.solve(b)).norm(), 1e-9 * x.norm());
+  EXPECT_EQ(solve(split, b, 2), x);
+  arap::BlockCholesky two;
+  ASSERT_TRUE(two.factor(A, arap::BlockCholesky::Kernel::Supernodal, 2, arap::BlockCholesky::Ordering::Amd,
+                         nullptr, last));
+  EXPECT_EQ(two.nonzeros(), split.nonzeros());
+  EXPECT_EQ(solve(two, b, 1), x);
+}
+
 TEST(BlockCholesky, RefusesMatricesThatAreNotPositiveDefinite) {
   arap::BlockCholesky chol;
   // A graph Laplacian shifted down: indefinite, yet every diagonal entry positive.

@@ -158,7 +158,7 @@ TEST_F(Cli, BendsABarAndReports) {
   const auto bar = make_bar_files();
   const Result r =
       run("bar.obj --fixed fixed.txt --handle handle.txt --translate 2,0,-1 --max-iterations 15 --tolerance 0 "
-          "--init naive --weights cotan --output bent.obj --report report.json");
+          "--init naive --weights cotan --volume none --output bent.obj --report report.json");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(r.err.empty()) << r.err;
   EXPECT_NE(r.out.find("energy"), std::string::npos);
@@ -238,6 +238,28 @@ TEST_F(Cli, MethodsAreListedAndChecked) {
     ASSERT_EQ(r.code, 0) << r.err;
     EXPECT_EQ(json::parse(slurp(path("a.json")))["method"], "anderson");
   }
+}
+
+// The default model is Volume Infill; Anderson, which cannot carry the volume terms, solves Surface Only unless
+// --volume names a mode (then it is refused, naming the conflict).
+TEST_F(Cli, TheDefaultIsInfillAndAndersonAloneSolvesTheSurface) {
+  make_bar_files();
+  const std::string ok = "bar.obj --fixed fixed.txt --handle handle.txt --translate 1,0,0 -q";
+  ASSERT_EQ(run(ok + " --output d.off --report d.json").code, 0);
+  ASSERT_EQ(run(ok + " --volume infill --output i.off").code, 0);
+  ASSERT_EQ(run(ok + " --volume none --output n.off").code, 0);
+  EXPECT_EQ(json::parse(slurp(path("d.json")))["volume"], "infill");
+  EXPECT_EQ(slurp(path("d.off")), slurp(path("i.off")));
+  EXPECT_NE(slurp(path("d.off")), slurp(path("n.off")));
+  ASSERT_EQ(run(ok + " --method anderson --output a.off --report a.json").code, 0);
+  ASSERT_EQ(run(ok + " --method anderson --volume none --output an.off").code, 0);
+  EXPECT_EQ(json::parse(slurp(path("a.json")))["volume"], "none");
+  EXPECT_EQ(slurp(path("a.off")), slurp(path("an.off")));
+  const Result refused = run(ok + " --method anderson --volume infill --output r.off");
+  EXPECT_EQ(refused.code, 2);
+  EXPECT_NE(refused.err.find("--volume infill works with --method quasi-newton or local-global, not anderson"),
+            std::string::npos)
+      << refused.err;
 }
 
 // The flags are the option table's names; --iterations and --anderson, the short forms older scripts use,

@@ -15,6 +15,7 @@
 #include <tuple>
 #include <utility>
 
+#include "surface_options.h"
 #include "arap/errors.h"
 #include "arap/io/shape_measures.h"
 #include "arap/solver.h"
@@ -68,7 +69,7 @@ Scene bent_bar(const Eigen::Vector3d& shift, int vertices = 600, bool keep_size 
 }
 
 Options with_contact(Contact contact) {
-  Options o;
+  Options o = arap_test::surface_options();
   o.contact = contact;
   return o;
 }

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "surface_options.h"
 #include "arap/errors.h"
 #include "arap/solver.h"
 #include "arap/tools/procedural.h"
@@ -52,7 +53,7 @@ bool refused_for_memory(const Call& call, const std::string& named) {
 arap::Solver bound_to(const arap::procedural::TriMesh& mesh) {
   const arap::procedural::Bend bend = arap::procedural::bend(mesh.vertices);
   arap::Solver solver;
-  solver.bind(mesh.vertices, mesh.triangles, bend.constrained, arap::Options{});
+  solver.bind(mesh.vertices, mesh.triangles, bend.constrained, arap_test::surface_options());
   return solver;
 }
 
@@ -82,7 +83,7 @@ TEST(MemoryLimit, ABindTooLargeIsRefusedAndThePreviousBindingKept) {
         limit_address_space(size_t(40) << 20);
         bool refused = false;
         try {
-          solver.bind(large.vertices, large.triangles, large_bend.constrained, arap::Options{});
+          solver.bind(large.vertices, large.triangles, large_bend.constrained, arap_test::surface_options());
         } catch (const arap::Error& e) {
           const std::string m = e.what();
           std::fprintf(stderr, "%s\n", e.what());
@@ -110,7 +111,7 @@ TEST(MemoryLimit, TheFactorizationIsCheckedFromItsColumnCounts) {
         limit_address_space(size_t(170) << 20);
         arap::Solver solver;
         const bool refused =
-            refused_for_memory([&] { solver.bind(large.vertices, large.triangles, bend.constrained, arap::Options{}); },
+            refused_for_memory([&] { solver.bind(large.vertices, large.triangles, bend.constrained, arap_test::surface_options()); },
                                "(the factorization)");
         std::exit(refused && !solver.is_bound() ? 0 : 1);
       },
@@ -137,7 +138,7 @@ TEST(MemoryLimit, WithRoomEnoughTheBindGoesAhead) {
 struct SliverFan {
   arap::procedural::TriMesh mesh;
   std::vector<int> rim;
-  arap::Options options;
+  arap::Options options = arap_test::surface_options();
 };
 
 SliverFan sliver_fan(int n) {

@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 
+#include "surface_options.h"
 #include "arap/solver.h"
 #include "gradient_check.h"
 #include "linalg/nested_dissection.h"
@@ -23,7 +24,7 @@ constexpr int kAround = arap_test::kBentAround, kRings = arap_test::kBentRings;
 
 arap::Options options_with(arap::InitialGuess init, int iterations, double tolerance = 0,
                            arap::Method method = arap::Method::QuasiNewton) {
-  arap::Options o;
+  arap::Options o = arap_test::surface_options();
   o.method = method;
   o.init = init;
   o.max_iterations = iterations;
@@ -124,7 +125,7 @@ TEST(QuasiNewton, ReachesPlainArapsMinimumInFewerIterations) {
     arap::Solver plain, quasi_newton;
     plain.bind(t.mesh.V, t.mesh.F, t.constrained,
                options_with(arap::InitialGuess::Naive, 2000, 0, arap::Method::LocalGlobal));
-    quasi_newton.bind(t.mesh.V, t.mesh.F, t.constrained, arap::Options());  // the defaults
+    quasi_newton.bind(t.mesh.V, t.mesh.F, t.constrained, arap_test::surface_options());  // the defaults but the volume
     const auto p = plain.solve(t.targets), q = quasi_newton.solve(t.targets);
     const double best = std::min(p.energy.back(), q.energy.back());
     const double band = best + 1e-3 * std::abs(best);
@@ -234,7 +235,7 @@ TEST(Solver, TimeBudgetStopsAfterTheIterationThatSpendsIt) {
     EXPECT_FALSE(stats.converged);
   }
   arap::Solver solver;
-  arap::Options bad;
+  arap::Options bad = arap_test::surface_options();
   bad.time_budget_ms = -1;
   EXPECT_THROW(solver.bind(t.mesh.V, t.mesh.F, t.constrained, bad), arap::Error);
 }
@@ -532,10 +533,10 @@ TEST(Stiffness, BadValuesAreRefused) {
   arap::Solver solver;
   std::vector<double> s(t.mesh.V.rows(), 1.0);
   s[5] = 0.0;
-  EXPECT_THROW(solver.bind(t.mesh.V, t.mesh.F, t.constrained, arap::Options(), s), arap::Error);
+  EXPECT_THROW(solver.bind(t.mesh.V, t.mesh.F, t.constrained, arap_test::surface_options(), s), arap::Error);
   s[5] = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_THROW(solver.bind(t.mesh.V, t.mesh.F, t.constrained, arap::Options(), s), arap::Error);
-  EXPECT_THROW(solver.bind(t.mesh.V, t.mesh.F, t.constrained, arap::Options(), {1.0, 2.0}), arap::Error);
+  EXPECT_THROW(solver.bind(t.mesh.V, t.mesh.F, t.constrained, arap_test::surface_options(), s), arap::Error);
+  EXPECT_THROW(solver.bind(t.mesh.V, t.mesh.F, t.constrained, arap_test::surface_options(), {1.0, 2.0}), arap::Error);
 }
 
 }  // namespace

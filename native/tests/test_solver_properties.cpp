@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "surface_options.h"
 #include "arap/solver.h"
 #include "arap/tools/procedural.h"
 #include "gradient_check.h"
@@ -46,7 +47,7 @@ class SolverProperties : public ::testing::TestWithParam<Case> {
   }
 
   arap::Solver bound(arap::Method method, int iterations, double tolerance) const {
-    arap::Options o;
+    arap::Options o = arap_test::surface_options();
     o.method = method;
     o.max_iterations = iterations;
     o.tolerance = tolerance;

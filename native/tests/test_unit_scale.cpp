@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "surface_options.h"
 #include "arap/solver.h"
 #include "test_meshes.h"
 
@@ -36,7 +37,7 @@ struct Solved {
 
 Solved solve_at(double scale, arap::Method method) {
   const ScaledBend b(scale);
-  arap::Options o;
+  arap::Options o = arap_test::surface_options();
   o.max_iterations = 40;
   o.tolerance = 0;
   o.method = method;
@@ -101,7 +102,7 @@ TEST(SolveStats, WarmStartReportsAFiniteInitialEnergy) {
   const ScaledBend b(1.0);
   for (arap::Method method : {arap::Method::LocalGlobal, arap::Method::Anderson, arap::Method::QuasiNewton}) {
     SCOPED_TRACE("method " + arap::to_string(method));
-    arap::Options o;
+    arap::Options o = arap_test::surface_options();
     o.init = arap::InitialGuess::WarmStart;
     o.method = method;
     o.anderson_window = 3;
@@ -123,7 +124,7 @@ TEST(SolveStats, WarmStartReportsAFiniteInitialEnergy) {
 
 TEST(SolveStats, ZeroIterationsReturnTheEnergyOfTheReturnedPositions) {
   const ScaledBend b(1.0);
-  arap::Options o;
+  arap::Options o = arap_test::surface_options();
   o.init = arap::InitialGuess::WarmStart;
   arap::Solver solver;
   solver.bind(b.mesh.V, b.mesh.F, b.constrained, o);

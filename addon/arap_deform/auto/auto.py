@@ -47,7 +47,7 @@ from .background_bind import BackgroundBind
 from ..solver.dependency_loops import DependencyLoop
 from ..errors import SetupError
 from ..native_loader import native
-from ..persistence.renamed_settings import setting
+from ..persistence.older_settings import setting
 
 FRAME_BUDGET_MS = 30.0      # in the viewport, the worker shows a new pose at least this often while it solves
 POLL_S = 1.0 / 60.0         # how often the viewport looks for the worker's newest pose

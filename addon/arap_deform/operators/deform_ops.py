@@ -13,7 +13,7 @@ import bpy
 
 from .. import errors
 from ..persistence import solver_settings
-from ..persistence.renamed_settings import setting
+from ..persistence.older_settings import setting
 from ..solver import deform_job, sessions
 from ..ui import modal_timers, status_overlay
 

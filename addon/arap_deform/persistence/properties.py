@@ -199,6 +199,9 @@ class ARAP_PG_settings(PropertyGroup):
         description="Seconds between Live updates",
         default=1.0 / 30.0, min=0.001, max=1.0,
     )
+    # Written on save (older_settings.SAVED_WITH): settings without it that hold anything were saved by a
+    # version whose defaults older_settings.OLD_DEFAULTS lists.
+    saved_with: IntProperty(name="Saved With", default=0, min=0, options={'HIDDEN'})
 
 
 classes = (ARAP_PG_handle, ARAP_PG_settings)

@@ -84,13 +84,15 @@ METHOD_ITEMS, METHOD_NAMES = _choices(
     ('ANDERSON', "anderson", "Anderson", "Local/global with Anderson acceleration over the Anderson Window"),
 )
 VOLUME_ITEMS, VOLUME_NAMES = _choices(
-    ('NONE', "none", "Surface Only", "Surface ARAP: thick parts can fold flat and lose volume where they bend "
-     "(the paper's method)"),
+    ('NONE', "none", "Surface Only", "Surface ARAP (the paper's method): thick parts can fold flat and lose volume "
+     "where they bend, and the pose depends on how finely the mesh is tessellated. Files from older versions "
+     "keep it"),
     ('GLOBAL', "global", "Global", "Keep the enclosed volume of every closed part exactly; open parts are left "
      "as they are. About 1.4x the cost of an iteration, but the volume a bend squeezes out goes to the ends"),
     ('INFILL', "infill", "Infill", "Fill the inside with a lattice posed with the surface, like a 3D print's "
-     "infill: keeps the volume and cross-sections where it bends, on any mesh (open ones too); 1.3x to 3.4x the "
-     "cost of an iteration"),
+     "infill: keeps the volume and cross-sections where it bends, on any mesh (open ones too), and the same pose "
+     "however finely the mesh is tessellated. An iteration costs 1.3x to 3.4x a surface one, but it settles in "
+     "far fewer"),
 )
 # Self Contact is a switch: off and on are the contact option's two choices.
 CONTACT_NAMES = {False: "none", True: "self"}

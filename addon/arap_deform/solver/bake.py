@@ -46,7 +46,7 @@ import numpy as np
 
 from . import anim_compat, constraints, deform_job, meshio, problem, sessions
 from ..persistence import temp_files
-from ..persistence.renamed_settings import max_iterations_argument
+from ..persistence.older_settings import max_iterations_argument
 from ..errors import SetupError
 from ..native_loader import native
 

@@ -18,7 +18,7 @@ from . import constraints, meshio, sessions
 from .dependency_loops import DependencyLoop
 from ..errors import SessionError, SetupError
 from ..native_loader import native
-from ..persistence.renamed_settings import setting
+from ..persistence.older_settings import setting
 from .problem import Problem, bind_warnings, configured_solver, pose_contact_stop, sync_matrices
 
 

@@ -15,14 +15,15 @@ from ..errors import SetupError
 from ..native_loader import native
 # Blender enum items -> the native module's option values (declared with the items).
 from ..persistence.solver_settings import CONTACT_NAMES, INIT_NAMES, METHOD_NAMES, VOLUME_NAMES, WEIGHT_NAMES
-# The renamed settings, read through setting(): a library saved by an older version holds the old names.
-from ..persistence.renamed_settings import setting
+# Renamed settings and changed defaults, read through setting(): a library saved by an older version holds
+# the old names and relied on the old defaults.
+from ..persistence.older_settings import setting
 
 
 def bind_options(settings):
     """The bind options of the object's Volume and Self Contact settings (native names): what the solver
     keeps besides the surface's rigidity, fixed at bind."""
-    return {"volume": VOLUME_NAMES[settings.volume], "infill_resolution": settings.infill_resolution,
+    return {"volume": VOLUME_NAMES[setting(settings, "volume")], "infill_resolution": settings.infill_resolution,
             "contact": CONTACT_NAMES[setting(settings, "contact")]}
 
 

@@ -54,7 +54,10 @@ struct Options {
   InitialGuess cold_start = InitialGuess::Naive;
   // A safety cap: solves stop at the tolerance long before it on the measured meshes.
   int max_iterations = 1000;
-  // Stop when (E_prev - E) <= tolerance * |E_prev|; 0 runs the whole budget.
+  // Stop when (E_prev - E) <= tolerance * |E_prev| (quasi-Newton: and the next step's predicted decrease
+  // too); 0 runs the whole budget. With Volume::Infill, also only when the pose is estimated within
+  // 100 * tolerance of the rest bounding box's diagonal of where the iteration converges (1e-4 at the
+  // default; docs/engine_internals.md, "The stop rule"). Volume::None and Global stop on the energy alone.
   double tolerance = 1e-6;
   // Threads for the local step and the right-hand side (meshes of 2048+ vertices) and, from 20 000 free
   // vertices, for the bind's ordering and factorization and the triangular solves; 1 = none started.
@@ -65,7 +68,7 @@ struct Options {
   // (e.g. a viewport frame); the result is then not `converged`. 0 = no limit.
   double time_budget_ms = 0;
   // Needs a bind (like `weights`). Volume::Global works with the quasi-Newton and local/global methods.
-  Volume volume = Volume::None;
+  Volume volume = Volume::Infill;
   // Volume::Infill: lattice cells along the longest side of the mesh's bounding box (2..256).
   int infill_resolution = 10;
   // Needs a bind. Contact::Self works with the quasi-Newton and local/global methods.
@@ -128,6 +131,11 @@ std::vector<OptionConflict> method_conflicts(const Options& options);
 // The first of them, if any: check_options() refuses it, the command line
 // names it by its flags.
 std::optional<OptionConflict> method_conflict(const Options& options);
+
+// Anderson accelerates the surface energy's alternation and cannot carry the volume terms: options whose
+// caller chose it without naming a volume mode solve Surface Only (the command line and the module call
+// this when no volume was given; the add-on solves with quasi-newton instead and says so).
+void surface_only_for_anderson(Options& options);
 
 // Parse / print the names used on the command line and in Python ("cotan-clamped").
 Weights parse_weights(const std::string& name);

@@ -105,6 +105,16 @@ class Options(unittest.TestCase):
         with self.assertRaises(arap.ArapError):   # each option's limits, as configure() checks them
             arap.method_conflicts(method="gradient-descent")
 
+    def test_the_default_model_is_infill_and_anderson_alone_solves_the_surface(self):
+        self.assertEqual(arap.OPTIONS["volume"]["default"], "infill")
+        rest, tris = strip()
+        solver = arap.Solver()
+        solver.bind(rest, tris, np.array([0, 11]))
+        self.assertEqual(solver.volume, "infill")
+        solver.bind(rest, tris, np.array([0, 11]), method="anderson")    # it cannot carry the volume terms
+        self.assertEqual((solver.method, solver.volume), ("anderson", "none"))
+        self.assertEqual(arap.method_conflicts(method="anderson", volume="infill")[0][:2], ("volume", "infill"))
+
     def test_self_contact_is_fixed_at_bind_and_reports_how_far_the_handles_came(self):
         rest, tris = strip()
         solver = arap.Solver()

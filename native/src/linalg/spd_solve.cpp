@@ -84,41 +84,49 @@ std::vector<int> amd_order(const Eigen::SparseMatrix<double>& A, const std::vect
 // (docs/engine_internals.md).
 constexpr double kWidestSeparator = 4;
 
-// Rows of A split into two halves and a separator: breadth-first levels from
-// row 0 (and from the first unreached row of every further component); the
-// level at which half of the rows are reached is the separator, since edges
-// only join rows of the same or adjacent levels. All rows go to part[0] when
-// that level is wider than kWidestSeparator sqrt(rows).
-void split(const Eigen::SparseMatrix<double>& A, std::vector<int> part[3]) {
+// The rows of A not `last` (all of them when `last` is empty), split into two
+// halves and a separator: breadth-first levels over those rows from the first
+// (and from the first unreached row of every further component); the level at
+// which half of the rows are reached is the separator, since edges only join
+// rows of the same or adjacent levels. All go to part[0] when that level is
+// wider than kWidestSeparator sqrt(rows), or when there are fewer than kSplitRows.
+void split(const Eigen::SparseMatrix<double>& A, const std::vector<char>& last, std::vector<int> part[3]) {
   const int n = static_cast<int>(A.rows());
+  auto kept = [&](Eigen::Index v) { return last.empty() || !last[v]; };
+  int rows = 0;
+  for (int v = 0; v < n; ++v) rows += kept(v);
+  auto whole = [&] {
+    for (int v = 0; v < n; ++v)
+      if (kept(v)) part[0].push_back(v);
+  };
+  if (rows < kSplitRows) return whole();
   std::vector<int> level(n, -1), queue;
-  queue.reserve(n);
+  queue.reserve(rows);
   for (int start = 0; start < n; ++start) {
-    if (level[start] >= 0) continue;
+    if (level[start] >= 0 || !kept(start)) continue;
     level[start] = 0;
     queue.push_back(start);
     for (size_t k = queue.size() - 1; k < queue.size(); ++k)
       for (Eigen::SparseMatrix<double>::InnerIterator it(A, queue[k]); it; ++it)
-        if (level[it.row()] < 0) level[it.row()] = level[queue[k]] + 1, queue.push_back(static_cast<int>(it.row()));
+        if (level[it.row()] < 0 && kept(it.row()))
+          level[it.row()] = level[queue[k]] + 1, queue.push_back(static_cast<int>(it.row()));
   }
   const int levels = *std::max_element(level.begin(), level.end()) + 1;
   std::vector<int> count(levels, 0);
-  for (int l : level) ++count[l];
+  for (int l : level)
+    if (l >= 0) ++count[l];
   int cut = 0;
-  for (int below = 0; cut < levels && below + count[cut] < n / 2; ++cut) below += count[cut];
-  if (cut < levels && count[cut] > kWidestSeparator * std::sqrt(static_cast<double>(n))) {
-    part[0].resize(n);
-    for (int v = 0; v < n; ++v) part[0][v] = v;
-    return;
-  }
-  for (int v = 0; v < n; ++v) part[level[v] < cut ? 0 : level[v] > cut ? 1 : 2].push_back(v);
+  for (int below = 0; cut < levels && below + count[cut] < rows / 2; ++cut) below += count[cut];
+  if (cut < levels && count[cut] > kWidestSeparator * std::sqrt(static_cast<double>(rows))) return whole();
+  for (int v = 0; v < n; ++v)
+    if (kept(v)) part[level[v] < cut ? 0 : level[v] > cut ? 1 : 2].push_back(v);
 }
 
 // The lower triangle of P A P^T (row i of it is row perm[i] of A; A
 // symmetric, both triangles stored), the rows of each column in increasing
 // order: column j is column perm[j] of A renumbered, its rows below the
-// diagonal kept in increasing order as they come (insert_sorted), so the
-// writes are sequential. Half of the full permuted matrix, which the
+// diagonal kept in increasing order as they come (insert_sorted; a long
+// column is sorted once), so the writes are sequential. Half of the full permuted matrix, which the
 // factorization does not read.
 Eigen::SparseMatrix<double> permuted_lower(const Eigen::SparseMatrix<double>& A, const Eigen::VectorXi& perm) {
   const int n = static_cast<int>(A.rows());
@@ -137,12 +145,19 @@ Eigen::SparseMatrix<double> permuted_lower(const Eigen::SparseMatrix<double>& A,
   prefault(rows, sizeof(int) * ((A.nonZeros() + n) / 2));
   prefault(values, sizeof(double) * ((A.nonZeros() + n) / 2));
   int p = 0;
+  std::vector<std::pair<int, double>> scratch;
   for (int j = 0; j < n; ++j) {
     start[j] = p;
+    const bool long_column = outer[perm[j] + 1] - outer[perm[j]] >= kInsertionColumn;
     for (int q = outer[perm[j]]; q < outer[perm[j] + 1]; ++q) {
       const int i = position[inner[q]];
-      if (i >= j) insert_sorted(rows, values, start[j], p, i, value[q]);
+      if (i < j) continue;
+      if (long_column)
+        rows[p] = i, values[p++] = value[q];
+      else
+        insert_sorted(rows, values, start[j], p, i, value[q]);
     }
+    if (long_column) sort_column(rows, values, start[j], p, scratch);
   }
   start[n] = p;
   L.resizeNonZeros(p);  // no reallocation: only the count shrinks
@@ -192,18 +207,18 @@ double factor_operations(const OrderedMatrix& m) {
 }  // namespace
 
 bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel, int threads, Ordering ordering,
-                           const BeforeNumeric& before_numeric) {
+                           const BeforeNumeric& before_numeric, const std::vector<int>& last_rows) {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   n_ = A.rows();
   L_.clear();
-  std::vector<int> part[3];
-  if (n_ >= kSplitRows) {
-    split(A, part);
-  } else {
-    part[0].resize(n_);
-    for (Eigen::Index k = 0; k < n_; ++k) part[0][k] = static_cast<int>(k);
+  std::vector<char> last;
+  if (!last_rows.empty()) {
+    last.assign(n_, 0);
+    for (int r : last_rows) last[r] = 1;
   }
+  std::vector<int> part[3];
+  split(A, last, part);
   half_[0] = static_cast<Eigen::Index>(part[0].size());
   half_[1] = static_cast<Eigen::Index>(part[1].size());
   separator_ = half_[0] + half_[1];
@@ -227,6 +242,7 @@ bool BlockCholesky::factor(const Eigen::SparseMatrix<double>& A, Kernel kernel, 
     std::vector<int> order;
     order.reserve(n_);
     for (const auto& ordered_part : part_order) order.insert(order.end(), ordered_part.begin(), ordered_part.end());
+    order.insert(order.end(), last_rows.begin(), last_rows.end());
     return order;
   };
   OrderedMatrix chosen = ordered_matrix(A, order_parts(false), bounds);

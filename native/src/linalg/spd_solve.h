@@ -14,8 +14,9 @@
 // comes last, so the factor has no entry coupling the halves and the two
 // halves of each triangular solve can run on two threads. A level much wider
 // than a surface's ring (hubs, such as Volume Infill's lattice nodes) would
-// fill the factor: such a matrix stays whole. The split does not depend on
-// the thread count: the result is the same bit for bit.
+// fill the factor: such a matrix stays whole, unless its hubs are given to be
+// ordered last (factor's last_rows), when the rest is split without them. The
+// split does not depend on the thread count: the result is the same bit for bit.
 //
 // The numeric factorization is supernodal (supernodal_cholesky.h); Eigen's
 // simplicial one, column by column, stays selectable for comparison.
@@ -44,8 +45,12 @@ class BlockCholesky {
   // A: both triangles stored. Orders (see above), factors P A P^T = L L^T.
   // threads > 1 orders and (supernodal kernel) factors the two halves side by
   // side: the same factor bit for bit. Returns false if A is not SPD.
+  // last_rows (distinct rows of A, e.g. hubs): ordered after all the others,
+  // in the order given, with the separator; the others are split and ordered
+  // as a matrix of their own (without last_rows, the order is unchanged).
   bool factor(const Eigen::SparseMatrix<double>& A, Kernel kernel = Kernel::Supernodal, int threads = 1,
-              Ordering ordering = Ordering::Amd, const BeforeNumeric& before_numeric = nullptr);
+              Ordering ordering = Ordering::Amd, const BeforeNumeric& before_numeric = nullptr,
+              const std::vector<int>& last_rows = {});
   double ordering_ms() const { return ordering_ms_; }
   double factor_ms() const { return factor_ms_; }
   // x: rows() by 3 row-major, overwritten with A^-1 x. `work` is resized once.

@@ -342,6 +342,7 @@ void bind_vertices(const Eigen::Ref<const Points>& rest, const Parts& parts, con
 void write_lattice(const Lattice& lattice, int n, InfillGraph& out) {
   std::vector<std::pair<std::uint64_t, double>> sorted(lattice.edges.begin(), lattice.edges.end());
   std::sort(sorted.begin(), sorted.end());
+  out.edges.reserve(out.edges.size() + sorted.size());
   for (const auto& [key, w] : sorted)
     out.edges.push_back({n + static_cast<int>(key >> 32), n + static_cast<int>(key & 0xffffffffu), w});
   out.nodes.resize(static_cast<Eigen::Index>(lattice.nodes.size()), 3);
@@ -362,9 +363,11 @@ InfillGraph build_infill(const Eigen::Ref<const Points>& rest, const Eigen::Ref<
   out.spacing = lattice.grid.h;
   out.preconditioner_scale = 1 + 9 * kInfillBulk;
   long budget = kMaxCells;
+  out.edges.reserve(4 * static_cast<size_t>(rest.rows()));  // a vertex's binding: up to four edges
   for (size_t part = 0; part < parts.faces.size(); ++part) {
     const std::vector<int>& members = parts.vertices[part];
     std::vector<Eigen::Vector3i> vertex_cells;
+    vertex_cells.reserve(members.size());
     for (int v : members) vertex_cells.push_back(lattice.grid.cell_of(rest.row(v).transpose()));
     const WindingNumber winding(rest, triangles, parts.faces[part]);
     const PartSurface surface{rest, triangles, parts.faces[part]};

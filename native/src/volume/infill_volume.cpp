@@ -80,7 +80,7 @@ void LatticeBulk::add_half_gradient(const double* P, double* g) const {
   scatter(P, [&](int v, const Eigen::Vector3d& d) {
     const int r = free_row_[v];
     if (r >= 0)
-      for (int c = 0; c < 3; ++c) g[3 * r + c] += 0.5 * d[c];
+      for (int c = 0; c < 3; ++c) g[3 * r + c] += 0.25 * d[c];
   });
 }
 

@@ -25,7 +25,7 @@ class LatticeBulk {
   void bind(const BoundMesh& m, const InfillGraph& lattice, double gamma);
   bool active() const { return !nodes_.empty(); }
   double energy(const double* P) const;
-  // g += 1/2 dE_bulk/dp on the free rows (3 per free row).
+  // g += 1/4 dE_bulk/dp on the free rows (3 per free row), the scale of the solver's g (volume_term.h).
   void add_half_gradient(const double* P, double* g) const;
   // gradient += dE_bulk/dp for every vertex (#n by 3, internal order).
   void add_gradient(const double* P, double* gradient) const;

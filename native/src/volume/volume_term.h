@@ -26,7 +26,10 @@ class VolumeTerm {
 
   // The term's energy at P (#n by 3, internal order), added to ARAP's.
   virtual double energy(const double*) const { return 0; }
-  // g += 1/2 dE/dp on the free rows (3 per free row).
+  // g += 1/4 dE/dp on the free rows (3 per free row): the scale of the solver's ARAP gradient
+  // g = L_ff p_f - b_f (local_step.h's half_gradient(), a quarter of dE/dp: E counts every edge in
+  // the cells of both its ends, and L's weights are w_ij (s_i + s_j) / 2). At another scale the
+  // iteration would follow a gradient that is not the energy's, and stall where that one vanishes.
   virtual void add_half_gradient(const double*, double*) const {}
   // gradient += dE/dp for every vertex (#n by 3, internal order).
   virtual void add_gradient(const double*, double*) const {}
@@ -37,6 +40,15 @@ class VolumeTerm {
   // throws the lattice far from the last pose (tens of times the settled energy); the
   // solver carries the move by its harmonic extension instead, L_ff d_f = sum_c w_fc d_c.
   virtual bool warm_global_step() const { return true; }
+  // Whether the plain step -L_ff^-1 g may raise the energy, so that the line search halves it
+  // until it does not. It cannot with ARAP's Laplacian: the global step minimises the energy
+  // with the rotations fixed, which bounds it from above. It can where L is only a
+  // preconditioner (the bulk term's curvature is not below it) or the step returns onto a constraint.
+  virtual bool plain_step_may_rise() const { return constrains(); }
+  // The stop on the pose (pose_stop.h): a solve with this term stops only when its pose is
+  // estimated within this share of the rest bounding box's diagonal of its limit, per unit of
+  // Options::tolerance (0: the energy test alone, as the surface solves).
+  virtual double pose_stop_per_tolerance() const { return 0; }
 
   // Whether the term holds the positions on a constraint set.
   virtual bool constrains() const { return false; }

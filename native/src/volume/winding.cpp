@@ -13,10 +13,6 @@ constexpr int kLeafTriangles = 8;
 // A cluster farther than this many of its radii is replaced by its dipole.
 constexpr double kFarRatio = 2.0;
 
-struct Item {
-  Eigen::Vector3d a, b, c, centroid;
-};
-
 // Signed solid angle of triangle abc seen from q (Van Oosterom & Strackee 1983).
 double solid_angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
                    const Eigen::Vector3d& q) {
@@ -30,28 +26,35 @@ double solid_angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eig
 }  // namespace
 
 WindingNumber::WindingNumber(const Eigen::Ref<const Points>& positions, const Eigen::Ref<const Triangles>& triangles,
-                             const std::vector<int>& which) {
-  std::vector<Item> items;
-  items.reserve(which.size());
-  for (int f : which) {
-    Item t{positions.row(triangles(f, 0)).transpose(), positions.row(triangles(f, 1)).transpose(),
-           positions.row(triangles(f, 2)).transpose(), Eigen::Vector3d::Zero()};
-    t.centroid = (t.a + t.b + t.c) / 3;
-    items.push_back(t);
+                             const std::vector<int>& which)
+    : positions_(positions), triangles_(triangles) {
+  // The tree is built over the triangles' centroids (median splits), each
+  // with its triangle, then its leaves read the triangles in that order. The
+  // triangles' corners are read from `positions` where needed, not copied.
+  struct Entry {
+    Eigen::Vector3d centroid;
+    int face;
+  };
+  const int count = static_cast<int>(which.size());
+  std::vector<Entry> entries(which.size());
+  for (int t = 0; t < count; ++t) {
+    const int f = which[t];
+    const Eigen::Vector3d a = positions.row(triangles(f, 0)), b = positions.row(triangles(f, 1)),
+                          c = positions.row(triangles(f, 2));
+    entries[t] = {(a + b + c) / 3, f};
   }
-  // The tree is built over `items` in place (median splits), then its leaves read them in order.
   struct Range {
     int node, first, count, depth;
   };
-  nodes_.reserve(2 * items.size() / kLeafTriangles + 2);
+  nodes_.reserve(2 * which.size() / (kLeafTriangles / 2) + 2);  // leaves hold at least half of kLeafTriangles
   nodes_.emplace_back();
-  std::vector<Range> stack{{0, 0, static_cast<int>(items.size()), 0}};
+  std::vector<Range> stack{{0, 0, count, 0}};
   while (!stack.empty()) {
     const Range r = stack.back();
     stack.pop_back();
     Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = -lo;
     for (int k = r.first; k < r.first + r.count; ++k)
-      lo = lo.cwiseMin(items[k].centroid), hi = hi.cwiseMax(items[k].centroid);
+      lo = lo.cwiseMin(entries[k].centroid), hi = hi.cwiseMax(entries[k].centroid);
     if (r.count <= kLeafTriangles || r.depth > 48) {
       nodes_[r.node].first = r.first;
       nodes_[r.node].count = r.count;
@@ -60,8 +63,8 @@ WindingNumber::WindingNumber(const Eigen::Ref<const Points>& positions, const Ei
     int axis = 0;
     (hi - lo).maxCoeff(&axis);
     const int half = r.count / 2;
-    std::nth_element(items.begin() + r.first, items.begin() + r.first + half, items.begin() + r.first + r.count,
-                     [axis](const Item& s, const Item& t) { return s.centroid[axis] < t.centroid[axis]; });
+    std::nth_element(entries.begin() + r.first, entries.begin() + r.first + half, entries.begin() + r.first + r.count,
+                     [axis](const Entry& s, const Entry& t) { return s.centroid[axis] < t.centroid[axis]; });
     const int child = static_cast<int>(nodes_.size());
     nodes_[r.node].child = child;
     nodes_.emplace_back();
@@ -69,8 +72,8 @@ WindingNumber::WindingNumber(const Eigen::Ref<const Points>& positions, const Ei
     stack.push_back({child, r.first, half, r.depth + 1});
     stack.push_back({child + 1, r.first + half, r.count - half, r.depth + 1});
   }
-  corners_.reserve(3 * items.size());
-  for (const Item& t : items) corners_.push_back(t.a), corners_.push_back(t.b), corners_.push_back(t.c);
+  faces_.resize(which.size());
+  for (int t = 0; t < count; ++t) faces_[t] = entries[t].face;
   // Boxes, vector areas and centres bottom-up (children come after their parent).
   for (int i = static_cast<int>(nodes_.size()) - 1; i >= 0; --i) {
     Node& node = nodes_[i];
@@ -80,7 +83,7 @@ WindingNumber::WindingNumber(const Eigen::Ref<const Points>& positions, const Ei
     double total = 0;
     if (node.child < 0) {
       for (int k = node.first; k < node.first + node.count; ++k) {
-        const Eigen::Vector3d &a = corners_[3 * k], &b = corners_[3 * k + 1], &c = corners_[3 * k + 2];
+        const Eigen::Vector3d a = corner(k, 0), b = corner(k, 1), c = corner(k, 2);
         node.lo = node.lo.cwiseMin(a).cwiseMin(b).cwiseMin(c);
         node.hi = node.hi.cwiseMax(a).cwiseMax(b).cwiseMax(c);
         const Eigen::Vector3d vector_area = 0.5 * (b - a).cross(c - a);
@@ -116,12 +119,12 @@ double WindingNumber::solid_angles(int i, const Eigen::Vector3d& q) const {
   if (node.child >= 0) return solid_angles(node.child, q) + solid_angles(node.child + 1, q);
   double sum = 0;
   for (int k = node.first; k < node.first + node.count; ++k)
-    sum += solid_angle(corners_[3 * k], corners_[3 * k + 1], corners_[3 * k + 2], q);
+    sum += solid_angle(corner(k, 0), corner(k, 1), corner(k, 2), q);
   return sum;
 }
 
 double WindingNumber::operator()(const Eigen::Vector3d& q) const {
-  if (corners_.empty()) return 0;
+  if (faces_.empty()) return 0;
   return solid_angles(0, q) / (4 * M_PI);
 }
 

@@ -18,7 +18,8 @@ namespace arap {
 
 class WindingNumber {
  public:
-  // positions: #V by 3; which: the triangles of `triangles` to use.
+  // positions: #V by 3; which: the triangles of `triangles` to use. Reads
+  // positions and triangles while it lives: they must outlive it.
   WindingNumber(const Eigen::Ref<const Points>& positions, const Eigen::Ref<const Triangles>& triangles,
                 const std::vector<int>& which);
   double operator()(const Eigen::Vector3d& q) const;
@@ -30,13 +31,18 @@ class WindingNumber {
     Eigen::Vector3d area;    // sum of the vector areas (1/2 (b - a) x (c - a))
     double total_area = 0;   // sum of the triangles' areas
     double radius = 0;       // from `centre` to the farthest corner of the box
-    int first = 0, count = 0;  // leaf: triangles [first, first + count) of corners_
+    int first = 0, count = 0;  // leaf: triangles [first, first + count) of faces_
     int child = -1;            // inner: children child and child + 1
   };
   int build(int first, int count, int depth);
   double solid_angles(int node, const Eigen::Vector3d& q) const;
 
-  std::vector<Eigen::Vector3d> corners_;  // 3 per triangle, reordered by the tree
+  // Corner k of the triangle in place t of the tree's order.
+  Eigen::Vector3d corner(int t, int k) const { return positions_.row(triangles_(faces_[t], k)).transpose(); }
+
+  Eigen::Ref<const Points> positions_;
+  Eigen::Ref<const Triangles> triangles_;
+  std::vector<int> faces_;  // the triangles in the tree's order
   std::vector<Node> nodes_;
 };
 
