@@ -29,18 +29,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from volume_settle import make_mesh  # noqa: E402
-
-
-def constraints(rest):
-    z = rest[:, 2]
-    lo, height = z.min(), z.max() - z.min()
-    fixed = np.where(z <= lo + 0.2 * height + 1e-9)[0]
-    handle = np.where(z >= lo + 0.95 * height - 1e-9)[0]
-    constrained = np.concatenate([fixed, handle]).astype(np.int64)
-    pose = rest[constrained].copy()
-    pose[len(fixed):, 0] += 0.3 * height
-    return constrained, pose
+from volume_settle import bend_problem, make_mesh  # noqa: E402
 
 
 def child(build, mesh_file, modes, repeats, iterations):
@@ -50,7 +39,7 @@ def child(build, mesh_file, modes, repeats, iterations):
 
     data = np.load(mesh_file)
     rest, faces = data["rest"], data["faces"]
-    constrained, pose = constraints(rest)
+    constrained, pose, _further = bend_problem(rest)
     bind = {m: [] for m in modes}
     for r in range(repeats):
         for mode in (modes if r % 2 == 0 else modes[::-1]):

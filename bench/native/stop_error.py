@@ -35,6 +35,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from volume_settle import bend_problem  # noqa: E402
 from volume_table import read_obj  # noqa: E402
 
 
@@ -53,19 +54,6 @@ def make_mesh(build, shape, vertices, folder):
     return rest, faces.astype(np.int32)
 
 
-def problem(rest):
-    z = rest[:, 2]
-    lo, height = z.min(), z.max() - z.min()
-    fixed = np.where(z <= lo + 0.2 * height + 1e-9)[0]
-    handle = np.where(z >= lo + 0.95 * height - 1e-9)[0]
-    constrained = np.concatenate([fixed, handle]).astype(np.int64)
-    pose = rest[constrained].copy()
-    pose[len(fixed):, 0] += 0.3 * height
-    further = pose.copy()
-    further[len(fixed):, 0] += 0.05 * (rest.max(axis=0) - rest.min(axis=0)).max()
-    return constrained, pose, further
-
-
 def converged_from(solver, start, targets, warm):
     """The limit of the solve of `targets` from `start` (None: cold)."""
     solver.configure(method="quasi-newton", tolerance=1e-13, max_iterations=20000)
@@ -81,7 +69,7 @@ def converged_from(solver, start, targets, warm):
 
 def stops(arap, rest, faces, mode, method):
     """The cold solve's and the warm solve's after a step: (stats, positions) each."""
-    constrained, pose, further = problem(rest)
+    constrained, pose, further = bend_problem(rest)
     solver = arap.Solver()
     solver.bind(rest, faces, constrained, volume=mode)
     solver.configure(method=method, tolerance=1e-6, max_iterations=1000, init="naive")
@@ -106,7 +94,7 @@ def stops_of(build, stops_build, shape, size, mode, method, folder):
 
 def stop_errors(arap, build, stops_build, shape, size, folder, mode, methods):
     rest, faces = make_mesh(build, shape, size, folder)
-    constrained, pose, further = problem(rest)
+    constrained, pose, further = bend_problem(rest)
     diag = np.linalg.norm(rest.max(axis=0) - rest.min(axis=0))
     solver = arap.Solver()
     solver.bind(rest, faces, constrained, volume=mode)
@@ -122,7 +110,7 @@ def stop_errors(arap, build, stops_build, shape, size, folder, mode, methods):
 
 
 def timing(arap, rest, faces, mode, repeats):
-    constrained, pose, further = problem(rest)
+    constrained, pose, further = bend_problem(rest)
     solver = arap.Solver()
     solver.bind(rest, faces, constrained, volume=mode)
     out = []

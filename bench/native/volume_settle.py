@@ -34,7 +34,9 @@ def make_mesh(build, shape, vertices, folder):
     return np.array(rest, dtype=np.float64), np.array(faces, dtype=np.int32)
 
 
-def measure(arap, rest, faces, mode, repeats):
+def bend_problem(rest):
+    """The bend of these benchmarks: the lowest fifth fixed, the top 5% the handle, pulled sideways by 0.3 of the
+    height (`pose`), then 5% of the longest side further (`further`). Returns (constrained, pose, further)."""
     z = rest[:, 2]
     lo, height = z.min(), z.max() - z.min()
     fixed = np.where(z <= lo + 0.2 * height + 1e-9)[0]
@@ -44,6 +46,11 @@ def measure(arap, rest, faces, mode, repeats):
     pose[len(fixed):, 0] += 0.3 * height
     further = pose.copy()
     further[len(fixed):, 0] += 0.05 * (rest.max(axis=0) - rest.min(axis=0)).max()
+    return constrained, pose, further
+
+
+def measure(arap, rest, faces, mode, repeats):
+    constrained, pose, further = bend_problem(rest)
     solver = arap.Solver()
     solver.bind(rest, faces, constrained, volume=mode)
     cold, settle = [], []
