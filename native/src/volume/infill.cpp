@@ -18,8 +18,11 @@ namespace arap {
 
 namespace {
 
-// kappa and beta of infill.h (how they were chosen: docs/engine_internals.md).
-constexpr double kLatticeStiffness = 10;
+// kappa and beta of infill.h (how they were chosen: docs/engine_internals.md). kappa = 20,
+// not 10: at 10 the surface's own bending (O(h^2) per triangle, gone as it is refined) still
+// carried a share of a coarse bar's bend, so bar1 and bar2 posed 11% of the diagonal apart
+// when split; at 20 the lattice carries it (under 1.3%), for ~3 more settle iterations.
+constexpr double kLatticeStiffness = 20;
 constexpr double kCoupling = 4;
 // A free vertex's binding in all, relative to beta A_v / h^2, and the grip of a
 // cube's constrained vertices on it, relative to its 12 lattice edges (bind_vertices).
