@@ -234,7 +234,10 @@ class SelfContact(unittest.TestCase):
         self.assertTrue(r.warnings[0].startswith("Frame 2: Handle 'top' stopped at "), r.warnings)
         for positions in r.positions:
             self.assertTrue(np.isfinite(positions).all())
-            self.assertEqual(self.crossings(positions.astype(np.float64)), 0)
+        # Frame 1 is the rest pose: it comes back as the rest (to rounding: Infill's lattice is solved too, and
+        # BVHTree.overlap counts triangles that touch at rest once they move by 1e-15). Frame 2 never crosses.
+        np.testing.assert_allclose(r.positions[0].reshape(-1, 3), self.rest, atol=1e-6)
+        self.assertEqual(self.crossings(r.positions[1].astype(np.float64)), 0)
 
     def test_saved_in_the_blend_and_anderson_solves_with_quasi_newton(self):
         self.obj.arap.contact = True
