@@ -20,6 +20,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "methods.h"
 #include "arap/solver.h"
 #include "arap/version.h"
 #include "band.h"
@@ -265,7 +266,7 @@ constexpr int kTimingIterations = 30;
 
 json run_ours(const bench::Case& c, arap::Weights weights, int threads, int anderson, bool timing_only,
               const Args& args) {
-  arap::Options options;
+  arap::Options options = bench::surface_options();
   // Iterations of the same algorithm as CGAL's: the textbook alternation (or Anderson's on it).
   options.method = anderson > 0 ? arap::Method::Anderson : arap::Method::LocalGlobal;
   options.weights = weights;
@@ -344,7 +345,7 @@ json run_ours(const bench::Case& c, arap::Weights weights, int threads, int ande
 // CGAL on the same problem; its energies are evaluated with our energy and
 // cotan-clamped weights (CGAL's weights), outside the timed calls.
 json run_cgal(const bench::Case& c, const Args& args, double reference_clamped) {
-  arap::Options options;
+  arap::Options options = bench::surface_options();
   options.weights = arap::Weights::CotanClamped;
   arap::Solver evaluator;
   evaluator.bind(c.rest, c.triangles, c.constrained, options);
@@ -387,7 +388,7 @@ json run_cgal(const bench::Case& c, const Args& args, double reference_clamped) 
 // speed during the run touches both sides alike: the median of the pairs'
 // ratios of CPU time of the thread, with every sample kept.
 json bind_pairs(const bench::Case& c, arap::Weights weights, const Args& args) {
-  arap::Options options;
+  arap::Options options = bench::surface_options();
   options.weights = weights;
   options.init = args.init;
   std::vector<double> ours_ms, cgal_ms, ratio;

@@ -31,7 +31,7 @@ int first_in_band(const std::vector<double>& energy, double limit) {
 }
 
 arap::Solver bound(const Case& c, arap::Method method) {
-  arap::Options o;
+  arap::Options o = bench::surface_options();
   o.method = method;
   o.weights = arap::Weights::CotanClamped;  // the default, and CGAL's weights
   o.init = arap::InitialGuess::Naive;
@@ -139,7 +139,7 @@ json time_to_band(const Case& c, const BandSettings& settings) {
     if (kMethods[i].method != arap::Options().method) continue;
     if (k && settings.cap_ratio > 0) cpu_ms_cap = settings.cap_ratio * r["cpu_ms_to_band"].get<double>();
     // The defaults a user gets (the default method, its tolerance stop and safety cap).
-    s.options() = arap::Options();
+    s.options() = bench::surface_options();
     arap::SolveStats st;
     r["default_cpu_ms"] = timed_solve(s, c, settings.repeats, &st);
     r["default_iterations"] = st.iterations;

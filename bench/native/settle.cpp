@@ -46,7 +46,7 @@ json settle_after_step(const Case& c, const SettleSettings& settings) {
   arap::Points best_positions;
   std::vector<std::vector<double>> traces;  // each method's energies over its timed settle
   for (const MethodLabel& m : kMethods) {
-    arap::Options o;  // the defaults a user gets, but for the method
+    arap::Options o = bench::surface_options();  // the defaults a user gets, but for the method and the volume
     o.method = m.method;
     arap::Solver s;
     s.bind(c.rest, c.triangles, c.constrained, o);
@@ -77,7 +77,7 @@ json settle_after_step(const Case& c, const SettleSettings& settings) {
   }
   // E*: quasi-newton resumed from the lowest settle, run until the energy no longer moves.
   {
-    arap::Options o;
+    arap::Options o = bench::surface_options();
     arap::Solver s;
     s.bind(c.rest, c.triangles, c.constrained, o);
     s.set_positions(best_positions);
