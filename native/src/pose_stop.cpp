@@ -16,7 +16,9 @@ double PoseStop::distance_left() const {
   if (count_ < size) return std::numeric_limits<double>::infinity();
   const double newest = steps_[(count_ - 1) % size], oldest = steps_[count_ % size];
   if (newest == 0) return 0;
-  const double rho = std::pow(newest / oldest, 1.0 / kWindow);
+  // The 4th root as two square roots: std::pow would need glibc 2.29 (portable_math.h).
+  static_assert(kWindow == 4, "rho is the 4th root of the window's ratio");
+  const double rho = std::sqrt(std::sqrt(newest / oldest));
   if (!(rho < 1)) return std::numeric_limits<double>::infinity();
   double largest = 0;
   for (long k = 1; k < size; ++k) largest = std::max(largest, steps_[(count_ - k) % size]);
