@@ -36,18 +36,29 @@ void set_option_from_python(arap::Options& o, const std::string& name, const py:
   arap::set_option(o, spec, py::cast<double>(value), std::string(py::str(value)));
 }
 
+// `o` with `kwargs` (option names) set, unchecked.
+arap::Options set_from(arap::Options o, const py::kwargs& kwargs) {
+  for (const auto& [key, value] : kwargs) set_option_from_python(o, py::cast<std::string>(key), value);
+  return o;
+}
+
+// The defaults with `kwargs` set, as bind() takes them: Surface Only for a method anderson given without a volume.
+arap::Options unchecked_bind_options(const py::kwargs& kwargs) {
+  arap::Options o = set_from(arap::Options(), kwargs);
+  if (!kwargs.contains("volume")) arap::surface_only_for_anderson(o);
+  return o;
+}
+
 }  // namespace
 
 arap::Options with_options(arap::Options o, const py::kwargs& kwargs) {
-  for (const auto& [key, value] : kwargs) set_option_from_python(o, py::cast<std::string>(key), value);
+  o = set_from(o, kwargs);
   arap::check_options(o);
   return o;
 }
 
 arap::Options bind_options(const py::kwargs& kwargs) {
-  arap::Options o;
-  for (const auto& [key, value] : kwargs) set_option_from_python(o, py::cast<std::string>(key), value);
-  if (!kwargs.contains("volume")) arap::surface_only_for_anderson(o);
+  const arap::Options o = unchecked_bind_options(kwargs);
   arap::check_options(o);
   return o;
 }
@@ -106,11 +117,8 @@ void bind_method_conflicts(py::module_& m) {
   m.def(
       "method_conflicts",
       [](const py::kwargs& kwargs) {
-        arap::Options o;
-        for (const auto& [key, value] : kwargs) set_option_from_python(o, py::cast<std::string>(key), value);
-        if (!kwargs.contains("volume")) arap::surface_only_for_anderson(o);  // as bind_options() takes it
         py::list found;
-        for (const arap::OptionConflict& c : arap::method_conflicts(o))
+        for (const arap::OptionConflict& c : arap::method_conflicts(unchecked_bind_options(kwargs)))
           found.append(py::make_tuple(c.option, c.value, c.reason));
         return found;
       },

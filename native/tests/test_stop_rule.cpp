@@ -109,7 +109,7 @@ TEST(StopRule, ATightInfillSolveEndsAtAStationaryPoint) {
   }
 }
 
-// The surface's stop is the energy test's: iteration counts as every earlier version stopped, the
+// The surface's stop is the energy test's: the iteration counts of that test (pinned), the
 // plain iterations exactly where (E_prev - E) <= tolerance |E_prev| first holds, and the positions
 // those of running that many iterations with no stop at all. Any stop on the pose would end these
 // later: the surface's stop lies 1e-3 of the diagonal and more from its converged pose.

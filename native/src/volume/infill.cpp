@@ -18,10 +18,9 @@ namespace arap {
 
 namespace {
 
-// kappa and beta of infill.h (how they were chosen: docs/engine_internals.md). kappa = 20,
-// not 10: at 10 the surface's own bending (O(h^2) per triangle, gone as it is refined) still
-// carried a share of a coarse bar's bend, so bar1 and bar2 posed 11% of the diagonal apart
-// when split; at 20 the lattice carries it (under 1.3%), for ~3 more settle iterations.
+// kappa and beta of infill.h (how they were chosen: docs/engine_internals.md). kappa must make
+// the lattice, not the surface's own one-ring bending (an O(h^2) term that vanishes as the mesh
+// is refined), carry a coarse part's bend: otherwise the pose depends on the tessellation.
 constexpr double kLatticeStiffness = 20;
 constexpr double kCoupling = 4;
 // A free vertex's binding in all, relative to beta A_v / h^2, and the grip of a
