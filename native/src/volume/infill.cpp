@@ -18,10 +18,9 @@ namespace arap {
 
 namespace {
 
-// kappa and beta of infill.h (how they were chosen: docs/engine_internals.md). kappa must make
-// the lattice, not the surface's own one-ring bending (an O(h^2) term that vanishes as the mesh
-// is refined), carry a coarse part's bend: otherwise the pose depends on the tessellation.
-constexpr double kLatticeStiffness = 20;
+// kappa and beta of infill.h (how they were chosen, and what a stiffer lattice would give:
+// docs/engine_internals.md).
+constexpr double kLatticeStiffness = 10;
 constexpr double kCoupling = 4;
 // A free vertex's binding in all, relative to beta A_v / h^2, and the grip of a
 // cube's constrained vertices on it, relative to its 12 lattice edges (bind_vertices).

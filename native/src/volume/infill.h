@@ -21,7 +21,7 @@
 //  - lattice edges, the 12 edges of every cube, each cube adding
 //    kappa h / L / 4 to each of its edges: the graph Laplacian that
 //    discretises (kappa / L) integral |grad f|^2 dV, the same interior
-//    stiffness at every resolution (kappa = 20);
+//    stiffness at every resolution (kappa = 10);
 //  - coupling edges from each surface vertex v to the four corners of the
 //    Kuhn tetrahedron of its cube that holds it, weighted by their barycentric
 //    weights: 2 beta A_v / h^2 in all (A_v a third of the area of v's
