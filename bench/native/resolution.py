@@ -13,11 +13,18 @@ tolerance (the model's pose, not where a stop rule ends), with the handles'
 displacement times each factor. Printed per case: the largest distance of an
 original vertex from where the unsplit mesh put it, as a percentage of the rest
 bounding box's diagonal, and the iterations. Needs numpy.
+
+    /usr/bin/python3 bench/native/resolution.py build SCENARIOS --subsurf blender [--factors 1]
+
+compares each case with itself after Blender's Subdivision Surface modifier (level 1, applied by
+bench/blender/subdivision_surface.py) instead: the surface moves slightly, so "rest" gives how far the original
+vertices moved at rest, before any pose.
 """
 
 import argparse
 import json
 import os
+import subprocess
 import sys
 import tempfile
 import time
@@ -52,6 +59,23 @@ def split_at_midpoints(rest, triangles, groups):
         both = inside[unique[:, 0]] & inside[unique[:, 1]]
         grown.append(np.concatenate([g, n + np.nonzero(both)[0]]))
     return points, split, grown
+
+
+def subdivision_surface(blender, rest, triangles, groups):
+    """Like split_at_midpoints, by Blender's Subdivision Surface (its quads cut into triangles); also returns how far
+    the original vertices moved, as a fraction of the diagonal."""
+    script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "blender", "subdivision_surface.py")
+    with tempfile.TemporaryDirectory() as folder:
+        source, target = os.path.join(folder, "in.json"), os.path.join(folder, "out.json")
+        with open(source, "w") as f:
+            json.dump({"vertices": rest.tolist(), "faces": triangles.tolist(),
+                       "groups": [g.tolist() for g in groups]}, f)
+        subprocess.run([blender, "--background", "--factory-startup", "--python", script, "--", source, target],
+                       check=True, stdout=subprocess.DEVNULL)
+        with open(target) as f:
+            out = json.load(f)
+    return (np.array(out["vertices"], dtype=float), triangulated(out["faces"]),
+            [np.array(g, dtype=np.int64) for g in out["groups"]], out["rest_moved"])
 
 
 def scenario_cases(folder):
@@ -102,6 +126,8 @@ def main():
     parser.add_argument("--modes", default="none,infill", help="volume modes")
     parser.add_argument("--factors", default="1,2,3")
     parser.add_argument("--splits", type=int, default=2, help="how many times to split (1 or 2)")
+    parser.add_argument("--subsurf", metavar="BLENDER",
+                        help="compare with Blender's Subdivision Surface applied (this Blender) instead of splits")
     parser.add_argument("--procedural-vertices", type=int, default=2000)
     parser.add_argument("--only", help="comma-separated case names")
     parser.add_argument("--option", action="append", default=[], help="NAME=VALUE passed to bind (repeatable)")
@@ -117,24 +143,31 @@ def main():
         made_cases(args.build, args.procedural_vertices)
     if args.only:
         cases = [c for c in cases if c[0] in args.only.split(",")]
-    splits = list(range(1, args.splits + 1))
-    print("| mesh | V | x | mode | " + " | ".join("split %d: moved %% diag" % s for s in splits) +
-          " | iterations: " + ", ".join(["base"] + ["split %d" % s for s in splits]) + " |")
-    print("|---|---:|---:|---|" + "---:|" * (len(splits) + 1))
+    splits = ["Subdivision Surface"] if args.subsurf else ["split %d" % s for s in range(1, args.splits + 1)]
+    print("| mesh | V | x | mode | " + " | ".join("%s: moved %% diag" % s for s in splits) +
+          (" | rest moved %" if args.subsurf else "") +
+          " | iterations: " + ", ".join(["base"] + splits) + " |")
+    print("|---|---:|---:|---|" + "---:|" * (len(splits) + 1 + bool(args.subsurf)))
     for name, rest, triangles, fixed, handles in cases:
         diagonal = np.linalg.norm(rest.max(axis=0) - rest.min(axis=0))
         levels = [(rest, triangles, fixed, handles)]
+        rest_moved = ""
         for _ in splits:
             r, t, f, h = levels[-1]
-            points, tris, grown = split_at_midpoints(r, t, [f] + [hv for hv, _ in h])
+            groups = [f] + [hv for hv, _ in h]
+            if args.subsurf:
+                points, tris, grown, moved = subdivision_surface(args.subsurf, r, t, groups)
+                rest_moved = " %.2f |" % (100 * moved)
+            else:
+                points, tris, grown = split_at_midpoints(r, t, groups)
             levels.append((points, tris, grown[0], [(g, tr) for g, (_, tr) in zip(grown[1:], h)]))
         for factor in (float(x) for x in args.factors.split(",")):
             for mode in args.modes.split(","):
                 poses = [solve(arap, *lv, factor, dict(extra, volume=mode)) for lv in levels]
                 base = poses[0][0]
                 moved = [100 * np.linalg.norm(p[0][:len(rest)] - base, axis=1).max() / diagonal for p in poses[1:]]
-                print("| %s | %d | %g | %s | %s | %s |" % (
-                    name, len(rest), factor, mode, " | ".join("%.2f" % m for m in moved),
+                print("| %s | %d | %g | %s | %s |%s %s |" % (
+                    name, len(rest), factor, mode, " | ".join("%.2f" % m for m in moved), rest_moved,
                     ", ".join(str(p[1]) for p in poses)), flush=True)
 
 
