@@ -63,7 +63,13 @@ configure=(-DCMAKE_BUILD_TYPE=Release)
 # The benchmark compares with CGAL: with libcgal-dev installed above, a build without it fails the configure.
 if [ "$mode" = bench ]; then configure+=(-DARAP_BENCH_REQUIRE_CGAL=ON); else configure+=(-DARAP_BENCH_REQUIRE_CGAL=OFF); fi
 cmake -S . -B "$BUILD" "${configure[@]}"
-cmake --build "$BUILD" -j"$(nproc)"
+if [ "$mode" = demo ]; then
+  # The demo needs the two command-line tools and the add-on: the tests and benchmarks build in
+  # `bash setup.sh test` / `bash setup.sh bench`.
+  cmake --build "$BUILD" -j"$(nproc)" --target arap-make-mesh arap-deform arap_addon_zip
+else
+  cmake --build "$BUILD" -j"$(nproc)"
+fi
 
 case "$mode" in
   test)

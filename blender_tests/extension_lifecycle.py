@@ -22,6 +22,7 @@ import re
 import shutil
 import subprocess
 import sys
+import zipfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 POSE_SCRIPT = os.path.join(HERE, "lifecycle_pose.py")
@@ -99,12 +100,24 @@ class Lifecycle:
             raise Fail("uninstall left %s behind: %s" % (folder, left))
         print("ok   nothing left in %s" % os.path.relpath(folder, self.scratch))
 
+    def assert_declares_file_access(self):
+        """The bake and batch write files: the manifest says so (the extensions platform asks for it)."""
+        with zipfile.ZipFile(self.zip) as archive:
+            name = next(n for n in archive.namelist() if n.endswith("blender_manifest.toml"))
+            manifest = archive.read(name).decode()
+        # A `[permissions]` table with a `files` reason (tomllib is not in every Python this runs with).
+        table = re.search(r"^\[permissions\]\s*$(.*?)(^\[|\Z)", manifest, re.M | re.S)
+        if table is None or not re.search(r'^files\s*=\s*"[^"]+"', table.group(1), re.M):
+            raise Fail("the manifest declares no files permission:\n" + manifest)
+        print("ok   the manifest declares file access")
+
     def extension(self):
         ext_dir = lambda: os.path.join(self.root, "extensions", "user_default", "arap_deform")  # noqa: E731
         module = "bl_ext.user_default.arap_deform"
 
         self.fresh_user("validate")
         self.run("extension validate", ["--command", "extension", "validate", self.zip])
+        self.assert_declares_file_access()
 
         self.fresh_user("command_line")
         self.run("extension install-file", ["--command", "extension", "install-file", "-r", "user_default", "-e",

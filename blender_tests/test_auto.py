@@ -298,6 +298,46 @@ class Auto(unittest.TestCase):
         self.assertEqual({a.name for a in self.obj.data.attributes}, attributes)
         self.assertNotIn(auto.PROP_CREATED, self.obj.data)
 
+    def test_turning_off_after_a_deform_brings_back_that_pose(self):
+        self.empty.location.x += 0.4
+        api.deform(self.obj)
+        applied = U.raw_coords(self.obj).copy()
+        self.assertFalse(np.array_equal(applied, self.rest))
+        attributes = {a.name for a in self.obj.data.attributes}
+        api.set_auto(self.obj, True)
+        self.empty.location.x += 0.3
+        bpy.context.view_layer.update()
+        self.assertFalse(np.array_equal(U.raw_coords(self.obj), applied))
+        # Kept in the file: saved and opened again while Auto is on.
+        name = self.obj.name
+        path = os.path.join(tempfile.mkdtemp(), "applied.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=path)
+        bpy.ops.wm.open_mainfile(filepath=path)
+        self.obj = bpy.data.objects[name]
+        api.set_auto(self.obj, False)
+        np.testing.assert_array_equal(U.raw_coords(self.obj), applied)
+        self.assertEqual({a.name for a in self.obj.data.attributes}, attributes)
+
+    def test_turning_off_after_a_live_apply_into_the_shape_key_brings_back_that_pose(self):
+        self.obj.shape_key_add(name="Basis", from_mix=False)
+        self.empty.location.x += 0.4
+        session = api.start_session(self.obj)
+        for _ in range(50):
+            session.step()
+        session.finish()
+        key = self.obj.data.shape_keys.key_blocks["ARAP"]
+        applied = np.empty(len(self.rest), np.float32)
+        key.data.foreach_get("co", applied)
+        self.assertFalse(np.array_equal(applied, self.rest))
+        api.set_auto(self.obj, True)
+        self.empty.location.x -= 0.8
+        bpy.context.view_layer.update()
+        api.set_auto(self.obj, False)
+        now = np.empty(len(self.rest), np.float32)
+        self.obj.data.shape_keys.key_blocks["ARAP"].data.foreach_get("co", now)
+        np.testing.assert_array_equal(now, applied)
+        self.assertNotIn(auto.BEFORE_ATTRIBUTE, self.obj.data.attributes)
+
     def test_shape_key_result_and_off(self):
         self.obj.shape_key_add(name="Basis", from_mix=False)
         api.set_auto(self.obj, True)

@@ -217,6 +217,23 @@ class StandInLayout:
     def all_calls(self):
         return self.calls + [c for child in self.children for c in child.all_calls()]
 
+    def in_order(self):
+        """Every call in the order Blender would lay it out: each call, then what was drawn into its child."""
+        for call, child in zip(self.calls, self.children):
+            yield call
+            yield from child.in_order()
+
+
+def button_places(panel):
+    """What comes before each button of a drawn StandInPanel, as Blender stacks it: one entry per call (a label's
+    text left out: its line is there whatever it says), up to the last operator or property."""
+    places = []
+    for name, args, kwargs in panel.layout.in_order():
+        key = args[0] if name == "operator" else args[1] if name in ("prop", "prop_search") else None
+        places.append((name, key))
+    last = max(i for i, (name, _) in enumerate(places) if name in ("operator", "prop"))
+    return places[:last + 1]
+
 
 class StandInPanel:
     def __init__(self):
@@ -281,6 +298,49 @@ class PanelAndRedo(unittest.TestCase):
             self.assertTrue(any(text.startswith("Auto: settled") and icon == 'INFO' for text, icon in labels), labels)
         finally:
             self.obj.arap.auto = False
+
+    def test_the_buttons_stay_in_place_whatever_is_active_and_running(self):
+        panels = U.addon("panels")
+
+        def places():
+            panel = StandInPanel()
+            panels.ARAP_PT_main.draw(panel, bpy.context)
+            return button_places(panel)
+
+        bpy.context.view_layer.objects.active = self.obj
+        mesh_active = places()
+        self.assertIn(("operator", "object.arap_deform"), mesh_active)
+        self.assertIn(("operator", "object.arap_live_apply"), mesh_active)
+        bpy.context.view_layer.objects.active = self.empty
+        self.assertEqual(places(), mesh_active, "an active handle Empty moved the buttons")
+        for volume in ('NONE', 'GLOBAL', 'INFILL'):
+            self.obj.arap.volume = volume
+            self.assertEqual(places(), mesh_active, "Volume %s moved the buttons" % volume)
+        self.obj.arap.stiff_group = self.obj.arap.fixed_group
+        self.assertEqual(places(), mesh_active, "a stiff group moved the buttons")
+        self.obj.arap.stiff_group = ""
+        session = api.start_session(self.obj)
+        try:
+            session.step()
+            self.assertEqual(places(), mesh_active, "a Live session moved the buttons")
+        finally:
+            session.cancel()
+        self.empty.location.x += 0.5
+        self.obj.arap.auto = True
+        try:
+            self.assertEqual(places(), mesh_active, "Auto mode's status moved the buttons")
+        finally:
+            self.obj.arap.auto = False
+
+    def test_handle_rows_name_the_group_and_a_differently_named_empty(self):
+        panels = U.addon("panels")
+        handle = self.obj.arap.handles[0]
+        self.empty.name = "%s_%s" % (self.obj.name, handle.group)
+        self.assertEqual(panels.handle_row_text(handle, self.obj), handle.group)
+        self.empty.name = "Wrist"
+        self.assertEqual(panels.handle_row_text(handle, self.obj), "%s \u2192 Wrist" % handle.group)
+        handle.empty = None
+        self.assertIn("no Empty", panels.handle_row_text(handle, self.obj))
 
     def test_solver_settings_in_a_collapsed_sub_panel_with_plain_tooltips(self):
         properties, panels = U.addon("properties", "panels")

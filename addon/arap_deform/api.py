@@ -157,7 +157,8 @@ def reset(obj):
 def set_auto(obj, enabled=True):
     """Auto mode on or off (obj.arap.auto): while on, the mesh is posed by its
     handles whenever they change -- moves, keyframes and frame changes
-    (scene.frame_set) included. Off puts the rest shape back. Turning it on
+    (scene.frame_set) included. Off shows what the mesh showed when Auto was
+    turned on (the rest shape, or a pose applied before). Turning it on
     poses at once and raises SetupError / ArapError when it cannot."""
     _registered()
     obj.arap.auto = enabled

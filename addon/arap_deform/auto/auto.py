@@ -25,7 +25,7 @@ caches it. In --background and while rendering every pose is solved to the end,
 here, from the cold start.
 
 An error (a deleted Empty, a changed vertex count, Edit Mode) turns Auto off for
-that object, puts its rest shape back and leaves the reason in
+that object, puts back what the mesh showed before (restore_rest) and leaves the reason in
 obj.arap.auto_status; the handlers themselves never raise. A handle Empty that
 follows the posed mesh (dependency_loops.py), found when Auto starts or before
 any later solve, turns it off the same way but keeps the last pose written.
@@ -54,6 +54,7 @@ POLL_S = 1.0 / 60.0         # how often the viewport looks for the worker's newe
 SETTLED_SHOWN_S = 2.0       # the viewport says "settled" this long after a pose settles
 CACHE_BYTES = 256 << 20     # solved poses kept per object (least recently used dropped first)
 PROP_CREATED = "arap_auto_created"   # mesh custom property: what turning Auto on created
+BEFORE_ATTRIBUTE = "arap_before_auto"   # point attribute: a pose the output showed when Auto was turned on
 
 _posers = {}     # obj.as_pointer() -> AutoPoser (dropped on undo and load, when pointers change)
 _busy = False    # a handler is writing: its own depsgraph updates must not re-enter
@@ -336,7 +337,7 @@ def _redraw_later(seconds):
 
 
 def _auto_changed(settings, context):
-    """Auto turned on (pose now) or off (the rest shape comes back)."""
+    """Auto turned on (pose now) or off (what the mesh showed before comes back)."""
     if settings.auto:
         settings.auto_status = ""
         update_scene(context.scene)
@@ -386,15 +387,50 @@ def _created(obj, poser):
     elif not meshio.has_rest_attribute(mesh):
         made.append("rest")
         meshio.store_rest(mesh, poser.problem.rest32)
+    shown = _shown_before(obj, poser.output.mode)
+    if shown is not None and not np.array_equal(shown, poser.problem.rest32):
+        # A pose applied before (Live, Deform): turning Auto off brings it back, not the rest shape.
+        attribute = mesh.attributes.new(BEFORE_ATTRIBUTE, 'FLOAT_VECTOR', 'POINT')
+        attribute.data.foreach_set("vector", shown)
     mesh[PROP_CREATED] = ",".join(made) or "-"
     poser.output.ensure()
 
 
+def _shown_before(obj, mode):
+    """What the output Auto mode is about to write shows now (flat float32), or None when it does not exist
+    yet (a shape key Auto mode creates)."""
+    mesh = obj.data
+    if mode != 'SHAPE_KEY':
+        return meshio.read_coords(mesh)
+    key = mesh.shape_keys.key_blocks.get(meshio.SHAPE_KEY_NAME) if mesh.shape_keys is not None else None
+    if key is None:
+        return None
+    shown = np.empty(3 * len(mesh.vertices), np.float32)
+    key.data.foreach_get("co", shown)
+    return shown
+
+
+def _take_before(mesh):
+    """The shape kept by _created (flat float32), removed from the mesh; None when there is none or the vertex
+    count changed since."""
+    attribute = mesh.attributes.get(BEFORE_ATTRIBUTE)
+    if attribute is None:
+        return None
+    shown = None
+    if len(attribute.data) == len(mesh.vertices):
+        shown = np.empty(3 * len(mesh.vertices), np.float32)
+        attribute.data.foreach_get("vector", shown)
+    mesh.attributes.remove(attribute)
+    return shown
+
+
 def restore_rest(obj):
-    """Show the rest shape and remove what Auto mode created (bit for bit the
-    state before it was turned on, when nothing else changed in between)."""
+    """Show what the mesh showed when Auto was turned on (the rest shape, or a pose applied before) and
+    remove what Auto mode created: bit for bit the state before it was turned on, when nothing else changed
+    in between."""
     mesh = obj.data
     made = set(str(mesh.get(PROP_CREATED, "")).split(","))
+    before = _take_before(mesh)
     keys = mesh.shape_keys
     key = keys.key_blocks.get(meshio.SHAPE_KEY_NAME) if keys is not None else None
     if "keys" in made and keys is not None:
@@ -402,8 +438,11 @@ def restore_rest(obj):
     elif "key" in made and key is not None:
         obj.shape_key_remove(key)
     elif key is not None:
-        key.data.foreach_set("co", meshio.rest_coords(obj, 'SHAPE_KEY'))
-    if meshio.has_rest_attribute(mesh):
+        key.data.foreach_set("co", before if before is not None else meshio.rest_coords(obj, 'SHAPE_KEY'))
+        before = None
+    if before is not None:
+        mesh.vertices.foreach_set("co", before)
+    elif meshio.has_rest_attribute(mesh):
         rest = meshio.rest_coords(obj, 'MESH')
         if len(rest) == 3 * len(mesh.vertices):
             mesh.vertices.foreach_set("co", rest)
@@ -432,7 +471,7 @@ def _restore_in_edit_mode(obj, poser):
 
 
 def stop(obj, reason=None, keep_pose=False):
-    """Turn Auto off for `obj`: rest shape back (or, with `keep_pose`, the mesh as last written: a dependency
+    """Turn Auto off for `obj`: what it showed before Auto back (restore_rest; or, with `keep_pose`, the mesh as last written: a dependency
     loop stops Auto at its last good pose), state dropped, reason kept."""
     global _busy
     poser = _posers.get(obj.as_pointer())

@@ -83,7 +83,8 @@ class ARAP_PG_settings(PropertyGroup):
     auto: BoolProperty(
         name="Auto",
         description="Keep the mesh posed by its handles whenever they move, animate or are scrubbed, like a "
-                    "modifier (off: the rest shape comes back)",
+                    "modifier. Off: the mesh shows again what it showed when Auto was turned on (the rest shape, or a "
+                    "pose applied before)",
         default=False,
         update=_auto_changed,
     )

@@ -16,13 +16,23 @@ auto_lines = None
 
 
 class ARAP_UL_handles(bpy.types.UIList):
-    """Handles: each row names its vertex group and the Empty driving it; the
-    active one is edited below the list (as Blender's own vertex group list)."""
+    """Handles: each row names its vertex group and the Empty driving it (handle_row_text); the active one
+    is edited below the list, each name at full width (as Blender's own vertex group list)."""
 
     def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0):
-        split = layout.split(factor=0.45)
-        split.label(text=item.group or "(no group)", icon='GROUP_VERTEX')
-        split.label(text=item.empty.name if item.empty is not None else "(no Empty)")
+        layout.label(text=handle_row_text(item, data.id_data), icon='EMPTY_AXIS' if item.empty else 'ERROR')
+
+
+def handle_row_text(handle, obj):
+    """A handle's row: its vertex group, then its Empty when that is not named after the group (Add Handle
+    from Selection names the Empty '<mesh>_<group>': the group says it all)."""
+    group = handle.group or "(no group)"
+    if handle.empty is None:
+        return group + "  (no Empty)"
+    name = handle.empty.name
+    if name in (handle.group, "%s_%s" % (obj.name, handle.group)):
+        return group
+    return "%s → %s" % (group, name)
 
 
 NO_MESH_HINT = "Select a mesh object to pose it"
@@ -60,8 +70,11 @@ class ARAP_PT_main(bpy.types.Panel):
             return
         s = obj.arap
         session = sessions.session_for(obj)
+        # One line whatever is active, so that nothing below moves when an Empty becomes active.
         if obj != context.active_object:
-            layout.label(text="Handle of '%s'" % obj.name, icon='MESH_DATA')
+            layout.label(text="Handle of '%s'" % obj.name, icon='EMPTY_AXIS')
+        else:
+            layout.label(text=obj.name, icon='MESH_DATA')
 
         col = layout.column()
         col.label(text="Fixed Vertices", icon='PINNED')
@@ -77,12 +90,7 @@ class ARAP_PT_main(bpy.types.Panel):
         sub.operator("object.arap_handle_add", text="", icon='ADD')
         sub.operator("object.arap_handle_remove", text="", icon='REMOVE')
         if 0 <= s.active_handle < len(s.handles):
-            handle = s.handles[s.active_handle]
-            box = col.box()
-            box.use_property_split = True
-            box.use_property_decorate = False
-            box.prop_search(handle, "group", obj, "vertex_groups", text="Group")
-            box.prop(handle, "empty", text="Empty")
+            draw_active_handle(col.box(), s.handles[s.active_handle], obj)
         col.operator("object.arap_add_handle_from_selection", text="Add Handle from Selection", icon='ADD')
 
         col.separator()
@@ -91,36 +99,63 @@ class ARAP_PT_main(bpy.types.Panel):
         sub.use_property_decorate = False
         sub.prop(s, "output")
         sub.prop_search(s, "stiff_group", obj, "vertex_groups", text="Stiff Group")
-        if s.stiff_group:
-            sub.prop(s, "stiffness")
+        # Rows that apply only with another setting are greyed out, not taken away: nothing below moves.
+        row = sub.row()
+        row.enabled = bool(s.stiff_group)
+        row.prop(s, "stiffness")
         sub.prop(s, "volume")
-        if s.volume == 'INFILL':
-            sub.prop(s, "infill_resolution")
+        row = sub.row()
+        row.enabled = s.volume == 'INFILL'
+        row.prop(s, "infill_resolution")
         sub.prop(s, "contact")
 
-        col = layout.column(align=True)
-        col.prop(s, "auto", text="Auto (follow the handles)", toggle=True, icon='AUTO')
-        if s.auto_status and not s.auto:
-            col.label(text=s.auto_status, icon='ERROR')
-        elif s.auto and auto_lines is not None:
-            for text, icon in auto_lines(obj):
-                col.label(text=text, icon=icon)
-        if session is None:
-            col.operator("object.arap_deform", text="Deform", icon='MOD_SIMPLEDEFORM')
-            col.operator("object.arap_live", text="Live", icon='PLAY')
-        else:
-            row = col.row(align=True)
-            row.operator("object.arap_live_apply", text="Apply", icon='CHECKMARK')
-            row.operator("object.arap_live_cancel", text="Cancel", icon='CANCEL')
-            state = "settled" if session.settled else "settling"
-            if session.last is not None:
-                state += ", %.1f ms per update" % session.last.main_thread_ms
-            col.label(text="Live: " + state, icon='INFO')
-            if session.contact is not None:
-                col.label(text=session.contact.status(), icon='ERROR')
-        col = layout.column(align=True)
-        col.operator("object.arap_reset", text="Reset to Rest", icon='LOOP_BACK')
-        col.operator("object.arap_set_rest_pose", text="Set Rest Pose", icon='ARMATURE_DATA')
+        draw_actions(layout, s, session)
+        draw_status(layout, obj, s, session)
+
+
+def draw_active_handle(box, handle, obj):
+    """The active handle's group and Empty, each on a row of its own at the sidebar's full width (the list
+    above shortens long names)."""
+    col = box.column(align=True)
+    col.label(text="Group")
+    col.prop_search(handle, "group", obj, "vertex_groups", text="")
+    col.label(text="Empty")
+    col.prop(handle, "empty", text="")
+
+
+def draw_actions(layout, s, session):
+    """Every action button, in the same place whatever is active and whether a Live session runs: what does
+    not apply now is greyed out, not taken away."""
+    col = layout.column(align=True)
+    row = col.row(align=True)
+    row.enabled = session is None
+    row.operator("object.arap_deform", text="Deform", icon='MOD_SIMPLEDEFORM')
+    row.operator("object.arap_live", text="Live", icon='PLAY')
+    row = col.row(align=True)
+    row.enabled = session is not None
+    row.operator("object.arap_live_apply", text="Apply", icon='CHECKMARK')
+    row.operator("object.arap_live_cancel", text="Cancel", icon='CANCEL')
+    col.prop(s, "auto", text="Auto (follow the handles)", toggle=True, icon='AUTO')
+    col = layout.column(align=True)
+    col.operator("object.arap_reset", text="Reset to Rest", icon='LOOP_BACK')
+    col.operator("object.arap_set_rest_pose", text="Set Rest Pose", icon='ARMATURE_DATA')
+
+
+def draw_status(layout, obj, s, session):
+    """What Live and Auto are doing, under every button (these lines come and go)."""
+    col = layout.column(align=True)
+    if s.auto_status and not s.auto:
+        col.label(text=s.auto_status, icon='ERROR')
+    elif s.auto and auto_lines is not None:
+        for text, icon in auto_lines(obj):
+            col.label(text=text, icon=icon)
+    if session is not None:
+        state = "settled" if session.settled else "settling"
+        if session.last is not None:
+            state += ", %.1f ms per update" % session.last.main_thread_ms
+        col.label(text="Live: " + state, icon='INFO')
+        if session.contact is not None:
+            col.label(text=session.contact.status(), icon='ERROR')
 
 
 class SubPanel:
