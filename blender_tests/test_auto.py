@@ -263,6 +263,37 @@ class Auto(unittest.TestCase):
             np.testing.assert_array_equal(U.coords(self.obj), played[f - 1])
         self.assertEqual(auto.solve_count, count)
 
+    def test_the_second_solver_gives_each_frame_the_pose_a_render_gives(self):
+        # What the viewport caches for a frame played (final_poses.py) against --background's pose of it.
+        final_poses = U.addon("final_poses")
+        animate(self.empty)
+        scene = bpy.context.scene
+        poser = auto.AutoPoser(self.obj, scene)
+        finals = final_poses.FinalPoses(poser.problem, self.obj.arap, poser.max_iterations)
+        keys = {}
+        try:
+            for f in FRAMES:
+                scene.frame_set(f)
+                pose = poser.problem.pose(self.obj, depsgraph=bpy.context.evaluated_depsgraph_get())
+                keys[(f, pose.key)] = f
+                finals.want((f, pose.key), poser.problem.targets(pose), pose.transforms)
+                finals.want((f, pose.key), poser.problem.targets(pose), pose.transforms)   # once only
+            done = {}
+            deadline = time.monotonic() + 120
+            while finals.busy() and time.monotonic() < deadline:
+                for key, positions, _transforms, stats in finals.poll():
+                    self.assertTrue(stats.converged or stats.iterations == poser.max_iterations)
+                    done[keys[key]] = positions
+                time.sleep(0.01)
+        finally:
+            finals.stop()
+        self.assertIsNone(finals.failed if finals.failed != "stopped" else None)
+        self.assertEqual(sorted(done), list(FRAMES))
+        api.set_auto(self.obj, True)
+        for f in FRAMES:
+            scene.frame_set(f)
+            np.testing.assert_array_equal(done[f], U.raw_coords(self.obj), "frame %d" % f)
+
     def test_frames_do_not_depend_on_the_path(self):
         # Sequential play vs. jumping straight to frames in a shuffled order (a
         # fresh cache) vs. the bake: the same pose within the tolerance.

@@ -9,6 +9,10 @@
 #   xvfb-run -a -s "-screen 0 1280x800x24" blender --factory-startup -noaudio \
 #       --python bench/blender/bench_playback.py -- --viewport [same options]
 #
+# In the viewport Auto mode shows previews while a frame's final pose is solved on a second solver, so each
+# loop of the range is measured on its own: its frames per second and the share of its frames that showed their
+# final pose (--loops, default 3).
+#
 # Headless, per frame (wall ms, median): the first pass solves each frame
 # (from the cold start, to the tolerance), the second replays
 # the cached poses; then the path check: the cache dropped, the frames visited
@@ -43,6 +47,7 @@ def parse_args():
     p.add_argument("--iterations", type=int, default=1, help="Laplacian Deform's iterations")
     p.add_argument("--tolerance", type=float, default=None, help="the object's tolerance (default: its setting)")
     p.add_argument("--viewport", action="store_true")
+    p.add_argument("--loops", type=int, default=3, help="viewport: loops of the range Auto mode plays")
     p.add_argument("--output", default="results")
     return p.parse_args(argv)
 
@@ -169,10 +174,10 @@ def write(args, name, rows, table):
 class ViewportRun:
     """Plays each scene in the viewport (timers drive it: the UI must be running)."""
 
-    def __init__(self, args, api):
-        self.args, self.api = args, api
+    def __init__(self, args, api, auto):
+        self.args, self.api, self.auto = args, api, auto
         self.jobs = [(n, kind) for n in [int(x) for x in args.sizes.split(",") if x] for kind in ("auto", "lap")]
-        self.rows, self.times = [], []
+        self.rows, self.times, self.shown = [], [], []
 
     def view3d(self):
         win = bpy.context.window_manager.windows[0]
@@ -180,7 +185,23 @@ class ViewportRun:
         return win, area, next(r for r in area.regions if r.type == 'WINDOW')
 
     def frame_changed(self, scene, _depsgraph=None):
+        """After Auto mode's own handler (registered first): whether the frame shows its final pose."""
+        final = False
+        if self.jobs and self.jobs[0][1] == "auto":
+            obj = scene.objects.get("Tube")
+            poser = self.auto._posers.get(obj.as_pointer()) if obj is not None else None
+            final = poser is not None and poser.written in poser.cache and poser.written[0] == scene.frame_current
         self.times.append(time.perf_counter())
+        self.shown.append((scene.frame_current, final))
+
+    def loops(self):
+        """The frames shown, split where playback wrapped around: [[(time, frame, final), ...], ...]."""
+        loops = [[]]
+        for t, (frame, final) in zip(self.times, self.shown):
+            if loops[-1] and frame < loops[-1][-1][1]:
+                loops.append([])
+            loops[-1].append((t, frame, final))
+        return loops
 
     def start(self):
         if not self.jobs:
@@ -202,15 +223,20 @@ class ViewportRun:
         self.vertices = len(obj.data.vertices)
         win, area, region = self.view3d()
         area.spaces.active.region_3d.view_distance = 9.0
-        self.times = []
+        self.times, self.shown = [], []
         with bpy.context.temp_override(window=win, area=area, region=region):
             bpy.ops.screen.animation_play()
         bpy.app.timers.register(self.stop, first_interval=0.5)
         return None
 
     def stop(self):
-        enough = len(self.times) >= min(self.args.frames, 30)
-        too_long = len(self.times) >= 3 and time.perf_counter() - self.times[0] > 60
+        kind = self.jobs[0][1]
+        if kind == "auto":
+            enough = len(self.loops()) > self.args.loops   # the last loop complete
+            too_long = len(self.times) >= 3 and time.perf_counter() - self.times[0] > 600
+        else:
+            enough = len(self.times) >= min(self.args.frames, 30)
+            too_long = len(self.times) >= 3 and time.perf_counter() - self.times[0] > 60
         if not (enough or too_long):
             return 0.2
         win, area, region = self.view3d()
@@ -219,8 +245,17 @@ class ViewportRun:
         n, kind = self.jobs.pop(0)
         t = self.times[1:]   # the first change happens before the first frame is drawn
         fps = (len(t) - 1) / (t[-1] - t[0])
-        self.rows.append({"target_vertices": n, "kind": kind, "vertices": self.vertices, "fps": fps,
-                          "frames": len(t)})
+        row = {"target_vertices": n, "kind": kind, "vertices": self.vertices, "fps": fps, "frames": len(t)}
+        if kind == "auto":
+            # Per loop: frames per second (from its first frame to the next loop's), the share shown final.
+            loops = self.loops()
+            row["loops"] = [{"fps": len(lp) / ((loops[k + 1][0][0] if k + 1 < len(loops) else lp[-1][0]) - lp[0][0]),
+                             "final": sum(f for _t, _frame, f in lp) / len(lp), "frames": len(lp)}
+                            for k, lp in enumerate(loops[:self.args.loops]) if len(lp) > 1]
+            print("viewport auto %d vertices, per loop (fps, share final): %s" % (
+                self.vertices, ", ".join("%.1f, %.0f%%" % (lp["fps"], 100 * lp["final"]) for lp in row["loops"])),
+                flush=True)
+        self.rows.append(row)
         print("viewport %s %d vertices: %.1f fps over %d frames" % (kind, self.vertices, fps, len(t)), flush=True)
         bpy.app.timers.register(self.start, first_interval=0.5)
         return None
@@ -228,10 +263,14 @@ class ViewportRun:
     def finish(self):
         by = {(r["target_vertices"], r["kind"]): r for r in self.rows}
         sizes = sorted({r["target_vertices"] for r in self.rows})
+        loops = range(self.args.loops)
         write(self.args, "blender_playback_viewport", self.rows, "\n".join(
-            ["| V | Auto (viewport) | LapDeform + Hook (viewport) |", "|---:|---:|---:|"] +
-            ["| %d | %.1f fps | %.1f fps |" % (by[(n, "auto")]["vertices"], by[(n, "auto")]["fps"],
-                                               by[(n, "lap")]["fps"]) for n in sizes]))
+            ["| V | " + " | ".join("Auto loop %d: fps, frames final" % (k + 1) for k in loops) +
+             " | LapDeform + Hook (viewport) |", "|---:|" + "---:|" * (self.args.loops + 1)] +
+            ["| %d | %s | %.1f fps |" % (
+                by[(n, "auto")]["vertices"],
+                " | ".join("%.1f fps, %.0f%%" % (lp["fps"], 100 * lp["final"]) for lp in by[(n, "auto")]["loops"]),
+                by[(n, "lap")]["fps"]) for n in sizes]))
         bpy.app.handlers.frame_change_post.remove(self.frame_changed)
         bpy.ops.wm.quit_blender()
         return None
@@ -242,7 +281,7 @@ def main():
     U.load_addon(args.addon_dir)
     api, auto, bake = U.addon("api", "auto", "bake")
     if args.viewport:
-        run = ViewportRun(args, api)
+        run = ViewportRun(args, api, auto)
         bpy.app.handlers.frame_change_post.append(run.frame_changed)
         bpy.app.timers.register(run.start, first_interval=2.0)
         return

@@ -241,6 +241,12 @@ def write_state():
         STATE["auto_status"] = obj.arap.auto_status
         STATE["frame"] = bpy.context.scene.frame_current
         STATE["playing"] = bool(win.screen.is_animation_playing)
+        poser = U.addon("auto")._posers.get(obj.as_pointer())
+        if poser is not None:
+            STATE["auto_frames_final"] = list(poser.frames_final()) if poser.finals is not None else None
+            # The mesh shows the cached final pose of the frame on screen.
+            STATE["auto_shown_final"] = (poser.written is not None and poser.written in poser.cache
+                                         and poser.written[0] == bpy.context.scene.frame_current)
         if session is not None and session.last is not None:
             STATE["frame_ms"] = session.last.main_thread_ms
             STATE["energy"] = session.last.energy

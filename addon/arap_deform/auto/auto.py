@@ -21,7 +21,9 @@ settled, then stops (no CPU while idle): Blender's own input never waits for a
 solve. There the worker first follows the handles from the pose on screen (a
 preview while an Empty is dragged or the animation plays); once that has
 settled it solves the same handles from the cold start, shows that pose and
-caches it. In --background and while rendering every pose is solved to the end,
+caches it. While an animation plays, each frame played is also queued for a
+second solver (final_poses.py) that solves it from the cold start: the next
+loop shows final poses from the cache. In --background and while rendering every pose is solved to the end,
 here, from the cold start.
 
 An error (a deleted Empty, a changed vertex count, Edit Mode) turns Auto off for
@@ -44,6 +46,7 @@ from ..persistence import properties
 from ..solver import bake, meshio, problem, sessions
 from ..ui import panels, status_overlay
 from .background_bind import BackgroundBind
+from .final_poses import FinalPoses
 from ..solver.dependency_loops import DependencyLoop
 from ..errors import SetupError
 from ..native_loader import native
@@ -99,6 +102,9 @@ class AutoPoser:
         self.worker = None           # the SolveWorker of the viewport's solves while one runs
         self.targets = None          # the pending pose's targets (the worker's)
         self.final = False           # the worker solves them from the cold start (else: a preview)
+        self.finals = None           # FinalPoses: the played frames' final poses, on a second solver
+        self.frame_keys = {}         # frame -> the pose key last shown there in the viewport
+        self.frame_range = (1, 1)    # the scene's, when last updated
 
     def alive(self):
         """False once the object this poser was made for is deleted (a new object can land at its address)."""
@@ -120,7 +126,12 @@ class AutoPoser:
             return False
         # The pose key: the frame and the evaluated world matrices of the object and the Empties.
         pose = self.problem.pose(obj, depsgraph=depsgraph)
-        key = (depsgraph.scene.frame_current, pose.key)
+        scene = depsgraph.scene
+        key = (scene.frame_current, pose.key)
+        if on_worker:
+            self._take_final_poses()
+            self.frame_keys[key[0]] = key
+            self.frame_range = (scene.frame_start, scene.frame_end)
         if key == self.written and self.pending is None:
             return True
         hit = self.cache.get(key)
@@ -149,7 +160,7 @@ class AutoPoser:
         self.state_key, self.current = key, [t.copy() for t in pose.transforms]
         self.contact = problem.contact_stop(self.problem, stats)
         self._write(self.buffer, key)
-        self._remember(key, self.buffer.copy(), pose.transforms)
+        self._remember(key, self.buffer.copy(), pose.transforms, self.contact)
         self._settled(True)
         return True
 
@@ -173,6 +184,8 @@ class AutoPoser:
             self.state_key, self.current = key, [t.copy() for t in pose.transforms]
             self.targets = self.problem.targets(pose)
             self.worker.post(self.targets)
+            if _playing():
+                self._want_final_pose(key, pose.transforms)
             solve_count += 1
             self.pending, self.iterations, self.final = key, 0, False
             self._settled(False)   # a new pose, settling (the worker may have settled it by the take below)
@@ -200,10 +213,42 @@ class AutoPoser:
         self.contact = problem.pose_contact_stop(self.problem, out, self.targets)
         self._write(out, key)
         self.pending = None
-        self._remember(key, out.copy(), pose.transforms)
+        self._remember(key, out.copy(), pose.transforms, self.contact)
         self.stop_worker()
         self._settled(True)
         return True
+
+    def _want_final_pose(self, key, transforms):
+        """Queue `key`'s final pose on the second solver (made the first time a frame is played)."""
+        if self.finals is None:
+            self.finals = FinalPoses(self.problem, self.obj.arap, self.max_iterations)
+        self.finals.want(key, self.targets, transforms)
+
+    def _take_final_poses(self):
+        """Cache the final poses the second solver finished."""
+        if self.finals is None:
+            return
+        for key, positions, transforms, stats in self.finals.poll():
+            self._remember(key, positions, transforms, problem.contact_stop(self.problem, stats))
+        if self.finals.failed is not None and self.finals.failed != "stopped":
+            print("ARAP Auto: no final poses while playing '%s' (%s)" % (self.name, self.finals.failed))
+            self.finals.stop()
+
+    def finals_busy(self):
+        """The second solver has frames to solve (its poses are polled at each update)."""
+        return self.finals is not None and self.finals.busy()
+
+    def frames_final(self):
+        """(frames of the scene's range whose pose last shown here is cached, frames in the range)."""
+        first, last = self.frame_range
+        final = sum(1 for f in range(first, last + 1) if self.frame_keys.get(f) in self.cache)
+        return final, last - first + 1
+
+    def close(self):
+        """Stop both workers (the object is dropped)."""
+        self.stop_worker()
+        if self.finals is not None:
+            self.finals.stop()
 
     def _bound(self, wait):
         """True once the solver is bound: a bind on its own thread has finished (or, with `wait`, is
@@ -228,12 +273,17 @@ class AutoPoser:
         self.settled = settled
 
     def status(self):
-        """'binding', 'settling, N iterations' or 'settled after N iterations' (the last pose solved)."""
+        """'binding', 'settling, N iterations' or 'settled after N iterations' (the last pose solved), and
+        once frames were played, how many of the scene's range have their final pose cached."""
         if self.solver is None:
             return "binding"
         if not self.settled:
-            return "settling, %d iterations" % self.iterations
-        return "settled after %d iterations" % self.iterations if self.iterations else "settled"
+            text = "settling, %d iterations" % self.iterations
+        else:
+            text = "settled after %d iterations" % self.iterations if self.iterations else "settled"
+        if self.finals is not None:
+            text += "; %d of %d frames final" % self.frames_final()
+        return text
 
     def _warm_start(self, key, transforms):
         """Where the viewport's preview of a new pose starts from: the previous
@@ -262,11 +312,13 @@ class AutoPoser:
         if best is not None:
             self.solver.set_positions(best.reshape(-1, 3).astype(np.float64))
 
-    def _remember(self, key, positions, transforms):
-        """Cache a settled pose (and self.contact, its ContactStop)."""
+    def _remember(self, key, positions, transforms, contact):
+        """Cache a settled pose (and `contact`, its ContactStop, when Self Contact stopped it short)."""
         self.cache[key] = (positions, [t.copy() for t in transforms])
-        if self.contact is not None:
-            self.contacts[key] = self.contact
+        if contact is not None:
+            self.contacts[key] = contact
+        if self.finals is not None:
+            self.finals.drop(key)
         self.by_frame[key[0]] = key
         self.cache_bytes += positions.nbytes
         while self.cache_bytes > CACHE_BYTES and len(self.cache) > 1:
@@ -323,7 +375,7 @@ def auto_status_lines():
     now = time.monotonic()
     lines = []
     for p in _posers.values():
-        if not p.settled or now - p.settled_at < SETTLED_SHOWN_S:
+        if not p.settled or p.finals_busy() or now - p.settled_at < SETTLED_SHOWN_S:
             lines.append("ARAP Auto on '%s': %s" % (p.name, p.status()))
             if p.contact is not None:
                 lines.append(p.contact.status())
@@ -501,7 +553,7 @@ def stop(obj, reason=None, keep_pose=False):
 def _drop(uid):
     poser = _posers.pop(uid, None)
     if poser is not None:
-        poser.stop_worker()
+        poser.close()
 
 
 def forget(obj=None):
@@ -563,6 +615,12 @@ def _stop_reason(obj, exc):
     return message if "Auto posing stopped" in message else "%s: Auto posing stopped" % message
 
 
+def _playing():
+    """An animation plays in one of Blender's windows."""
+    wm = getattr(bpy.context, "window_manager", None)
+    return wm is not None and any(w.screen is not None and w.screen.is_animation_playing for w in wm.windows)
+
+
 def _interactive():
     if bpy.app.background:
         return False
@@ -589,7 +647,9 @@ def update_scene(scene, depsgraph=None):
                 if obj.mode == 'EDIT':
                     raise SetupError("'%s' is in Edit Mode: Auto posing stopped (the rest shape is shown); "
                                      "turn it on again after editing" % obj.name)
-                settled &= _poser(obj, scene, on_worker).update(obj, depsgraph, on_worker)
+                poser = _poser(obj, scene, on_worker)
+                settled &= poser.update(obj, depsgraph, on_worker)
+                settled &= not poser.finals_busy()   # the timer polls the second solver too
             except DependencyLoop as exc:
                 stop(obj, "%s. Auto posing stopped on '%s' (the mesh stays as it is)" % (exc, obj.name),
                      keep_pose=True)

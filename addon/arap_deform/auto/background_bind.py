@@ -9,6 +9,7 @@ before, on Blender's thread (problem.Problem, problem.solver_options): the
 thread touches no bpy data.
 """
 
+import os
 import threading
 
 from ..solver.problem import solver_options
@@ -17,14 +18,20 @@ from ..solver.problem import solver_options
 class BackgroundBind:
     """Binds `problem` with the options of `settings` (obj.arap; `overrides`: solver_options()'s keywords)
     on a new thread. solver() returns the bound solver once the bind has finished, else None; an error of the
-    bind is raised there, on the caller's thread."""
+    bind is raised there, on the caller's thread. `nice`: on Linux, how much lower than Blender's the thread's
+    priority is (work that may wait for Blender's)."""
 
-    def __init__(self, problem, settings, **overrides):
+    def __init__(self, problem, settings, nice=0, **overrides):
         options = solver_options(settings, **overrides)
         self._solver = None
         self._error = None
 
         def bind():
+            if nice and hasattr(os, "setpriority"):
+                try:
+                    os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), nice)   # this thread only
+                except OSError:
+                    pass
             try:
                 solver = problem.bind()
                 solver.configure(**options)
