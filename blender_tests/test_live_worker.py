@@ -1,6 +1,8 @@
 # Live and Deform as the viewport runs them: the solves on the worker's native
 # thread (LiveSession.update(), deform_job.DeformJob.start()/poll()), Blender's
 # thread only reading the Empties and writing finished poses.
+import contextlib
+import threading
 import time
 import unittest
 
@@ -9,8 +11,9 @@ import numpy as np
 from mathutils import Matrix
 
 import arap_test_utils as U
-api, deform_job, live_ops, native_loader, sessions = U.addon(
-    "api", "deform_job", "live_ops", "native_loader", "sessions")
+api, deform_job, live, live_ops, native_loader, problem, sessions, solver_cache = U.addon(
+    "api", "deform_job", "live", "live_ops", "native_loader", "problem", "sessions", "solver_cache")
+SetupError, SessionError = U.addon("errors").SetupError, U.addon("errors").SessionError
 
 GIVE_UP_S = 120.0
 
@@ -39,6 +42,27 @@ def update_until_settled(session):
     return written
 
 
+@contextlib.contextmanager
+def held_binds(error=None):
+    """Every bind waits until the test sets the event it yields (then raises `error`, when given): what a
+    long bind does to whoever waits for it."""
+    release = threading.Event()
+    bind = problem.Problem.bind
+
+    def held(problem_self):
+        release.wait(60)
+        if error is not None:
+            raise error
+        return bind(problem_self)
+
+    problem.Problem.bind = held
+    try:
+        yield release
+    finally:
+        release.set()
+        problem.Problem.bind = bind
+
+
 class LiveOnTheWorker(unittest.TestCase):
     def setUp(self):
         U.clear_scene()
@@ -62,6 +86,43 @@ class LiveOnTheWorker(unittest.TestCase):
         move(self.empty, dx=0.5, dz=-0.3)
         api.deform(self.obj, tolerance=1e-9)
         np.testing.assert_allclose(live, U.coords(self.obj), atol=2e-3)
+
+    def test_the_operators_session_binds_on_a_thread_of_its_own(self):
+        rest = U.raw_coords(self.obj).copy()
+        with held_binds() as release:
+            s = live.LiveSession(self.obj, bpy.context.scene, bind_on_thread=True)
+            move(self.empty, dx=0.5)
+            self.assertIsNone(s.update())    # returned at once: the bind is still running
+            self.assertIsNone(s.solver)
+            self.assertIn("binding", live_ops.live_status_text())
+            np.testing.assert_array_equal(U.raw_coords(self.obj), rest)
+            release.set()
+            update_until_settled(s)
+        moved = U.coords(self.obj)[self.top] - rest.reshape(-1, 3)[self.top]
+        np.testing.assert_allclose(moved, np.tile((0.5, 0.0, 0.0), (len(self.top), 1)), atol=1e-5)
+        s.cancel()
+        np.testing.assert_array_equal(U.raw_coords(self.obj), rest)
+
+    def test_a_bind_that_fails_on_its_thread_raises_from_update_and_cancel_restores(self):
+        rest = U.raw_coords(self.obj).copy()
+        with held_binds(SetupError("no memory left for this test")) as release:
+            s = live.LiveSession(self.obj, bpy.context.scene, bind_on_thread=True)
+            release.set()
+            s.binding.wait()
+            with self.assertRaisesRegex(SetupError, "no memory left"):
+                s.update()
+        s.cancel()
+        np.testing.assert_array_equal(U.raw_coords(self.obj), rest)
+        # The object deleted while Live binds: the next update stops Live, naming it.
+        with held_binds() as release:
+            s = live.LiveSession(self.obj, bpy.context.scene, bind_on_thread=True)
+            bpy.data.objects.remove(self.obj)
+            release.set()
+            with self.assertRaisesRegex(SessionError, "was deleted"):
+                s.update()
+        with self.assertRaisesRegex(SessionError, "was deleted"):
+            s.cancel()   # stops without touching anything, naming the object (LiveSession.cancel)
+        self.assertIsNone(sessions.any_session())
 
     def test_the_solve_runs_between_updates_not_in_them(self):
         # A solve that never settles (tolerance 0) on a finer bar: while the caller sleeps,
@@ -170,6 +231,51 @@ class DeformOnTheWorker(unittest.TestCase):
         self.assertFalse(job.solver.busy)
         self.assertEqual(job.progress, (0, 0.0))
 
+    def test_the_operators_job_binds_on_a_thread_of_its_own(self):
+        before = U.raw_coords(self.obj).copy()
+        here = api.deform(self.obj)
+        posed = U.raw_coords(self.obj).copy()
+        set_coords(self.obj, before)
+        solver_cache.clear()
+        with held_binds() as release:
+            job = deform_job.DeformJob(self.obj, bpy.context.scene, bind_on_thread=True)
+            job.start()
+            self.assertIsNone(job.poll())
+            self.assertIn("binding", " ".join(deform_ops_lines(job)))
+            release.set()
+            result = self.poll_until_done(job)
+        np.testing.assert_array_equal(U.raw_coords(self.obj), posed)
+        self.assertEqual((result.iterations, result.energy), (here.iterations, here.energy))
+        # The bound solver is kept: the redo panel's next run binds nothing.
+        again = deform_job.DeformJob(self.obj, bpy.context.scene, bind_on_thread=True)
+        self.assertTrue(again.cached)
+
+    def test_esc_while_binding_and_a_failed_bind_leave_the_mesh_untouched(self):
+        before = U.raw_coords(self.obj).copy()
+        solver_cache.clear()
+        with held_binds() as release:
+            job = deform_job.DeformJob(self.obj, bpy.context.scene, bind_on_thread=True)
+            job.start()
+            job.stop()
+            release.set()
+        self.assertIsNone(job.binding)
+        with held_binds(SetupError("no memory left for this test")) as release:
+            job = deform_job.DeformJob(self.obj, bpy.context.scene, bind_on_thread=True)
+            job.start()
+            release.set()
+            job.binding.wait()
+            with self.assertRaisesRegex(SetupError, "no memory left"):
+                job.poll()
+        np.testing.assert_array_equal(U.raw_coords(self.obj), before)
+        # The object deleted while its bind runs: a clear error at the next poll, nothing written.
+        with held_binds() as release:
+            job = deform_job.DeformJob(self.obj, bpy.context.scene, bind_on_thread=True)
+            job.start()
+            bpy.data.objects.remove(self.obj)
+            release.set()
+            with self.assertRaisesRegex(SetupError, "was deleted"):
+                job.poll()
+
     def test_progress_counts_up_while_it_solves(self):
         # The textbook method with tolerance 0 on a finer bar runs its whole cap (thousands of
         # iterations): the progress the viewport shows climbs while this thread only looks.
@@ -195,6 +301,16 @@ class DeformOnTheWorker(unittest.TestCase):
         self.assertEqual(bpy.ops.object.arap_deform('INVOKE_DEFAULT'), {'FINISHED'})
         moved = U.coords(self.obj)[self.top] - rest[self.top]
         np.testing.assert_allclose(moved, np.tile((0.6, 0.0, -0.2), (len(self.top), 1)), atol=1e-5)
+
+
+def deform_ops_lines(job):
+    """The viewport's lines for `job` as the modal Deform shows them."""
+    deform_ops = U.addon("deform_ops")
+    deform_ops.ARAP_OT_deform.running = job
+    try:
+        return deform_ops.deform_status_lines()
+    finally:
+        deform_ops.ARAP_OT_deform.running = None
 
 
 class UnsettledWarnings(unittest.TestCase):

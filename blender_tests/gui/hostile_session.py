@@ -87,7 +87,7 @@ def steps():
     obj, empty, _top = slow_bar("Doomed", cuts=150)
     check(invoke(bpy.ops.object.arap_deform) == {'RUNNING_MODAL'}, "Deform runs modal")
     job = deform_ops.ARAP_OT_deform.running
-    solving = yield from until(lambda: job.progress[0] > 0 or job.worker is None)
+    solving = yield from until(lambda: job.binding is None and (job.progress[0] > 0 or job.worker is None))
     check(solving and job.worker is not None, "Deform's worker solves (%s)" % (job.progress,))
     mesh = obj.data
     bpy.data.objects.remove(obj)
@@ -123,7 +123,7 @@ def steps():
     rest = U.raw_coords(obj).copy()
     check(invoke(bpy.ops.object.arap_deform) == {'RUNNING_MODAL'}, "Deform runs modal")
     job = U.addon("deform_ops").ARAP_OT_deform.running
-    solving = yield from until(lambda: job.progress[0] > 0 or job.worker is None)
+    solving = yield from until(lambda: job.binding is None and (job.progress[0] > 0 or job.worker is None))
     check(solving and job.worker is not None, "Deform's worker solves (%s)" % (job.progress,))
     U.disable_addon()
     yield 1.0

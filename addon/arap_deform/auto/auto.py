@@ -45,7 +45,7 @@ from .. import errors
 from ..persistence import properties
 from ..solver import bake, meshio, problem, sessions
 from ..ui import panels, status_overlay
-from .background_bind import BackgroundBind
+from ..solver.background_bind import BackgroundBind
 from .final_poses import FinalPoses
 from ..solver.dependency_loops import DependencyLoop
 from ..errors import SetupError

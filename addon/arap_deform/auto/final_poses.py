@@ -17,7 +17,7 @@ import collections
 import numpy as np
 
 from ..native_loader import native
-from .background_bind import BackgroundBind
+from ..solver.background_bind import BackgroundBind
 
 MAX_QUEUED = 2000   # frames waiting at most (the oldest dropped first)
 

@@ -48,7 +48,7 @@ class ARAP_OT_deform(bpy.types.Operator):
         self._job = None
         self._shown = None
 
-    def _start_job(self, context):
+    def _start_job(self, context, bind_on_thread=False):
         obj = sessions.target_mesh(context)
         if obj is not None and sessions.session_for(obj) is not None:
             raise errors.SetupError("Live is running on '%s': apply or cancel it first" % obj.name)
@@ -61,7 +61,7 @@ class ARAP_OT_deform(bpy.types.Operator):
             if self.max_iterations != setting(obj.arap, "max_iterations"):
                 source = 'OPERATOR'
         return deform_job.DeformJob(obj, context.scene, self.max_iterations, self.tolerance, self.init,
-                                iterations_from=source)
+                                    iterations_from=source, bind_on_thread=bind_on_thread)
 
     def _report_result(self, result):
         for w in result.warnings:
@@ -81,7 +81,7 @@ class ARAP_OT_deform(bpy.types.Operator):
         if bpy.app.background or context.window is None:
             return self.execute(context)
         try:
-            self._job = self._start_job(context)
+            self._job = self._start_job(context, bind_on_thread=True)
             self._job.start()
         except Exception as exc:  # noqa: BLE001
             if self._job is not None:
@@ -147,10 +147,13 @@ def deform_status_lines():
     job = ARAP_OT_deform.running
     if job is None:
         return []
-    iterations, energy = job.progress
-    return ["ARAP Deform on '%s': %d of at most %d iterations, energy %.5g"
-            % (job.name, iterations, job.max_iterations, energy),
-            "Esc: stop (the mesh stays as it was)"]
+    if job.binding is not None:
+        head = "ARAP Deform on '%s': binding (%d vertices)" % (job.name, len(job.problem.rest64))
+    else:
+        iterations, energy = job.progress
+        head = "ARAP Deform on '%s': %d of at most %d iterations, energy %.5g" % (
+            job.name, iterations, job.max_iterations, energy)
+    return [head, "Esc: stop (the mesh stays as it was)"]
 
 
 class _ApplyToActiveObject:

@@ -17,7 +17,7 @@ def live_status_lines():
     session = sessions.any_session()
     if session is None or not session.active:
         return []
-    head = "ARAP Live on '%s': %s" % (session.names[0], "settled" if session.settled else "settling")
+    head = "ARAP Live on '%s': %s" % (session.names[0], live_state(session))
     last = session.last
     lines = [head]
     if last is not None:
@@ -26,6 +26,13 @@ def live_status_lines():
     if session.contact is not None:
         lines.append(session.contact.status())
     return lines + ["Enter: apply   Esc: cancel"]
+
+
+def live_state(session):
+    """'binding' (on its thread, the mesh at rest), 'settling' or 'settled'."""
+    if session.solver is None:
+        return "binding"
+    return "settled" if session.settled else "settling"
 
 
 def live_status_text():
@@ -69,14 +76,13 @@ class ARAP_OT_live(bpy.types.Operator):
         try:
             if obj is None or obj.type != 'MESH':
                 raise errors.SetupError("ARAP works on a mesh object: select one and make it active")
-            self._session = live.LiveSession(obj, context.scene)
+            self._session = live.LiveSession(obj, context.scene, bind_on_thread=True)
             self._session.update()
         except Exception as exc:  # noqa: BLE001
             if self._session is not None:
                 self._session.cancel()
             return errors.report_error(self, exc)
-        for w in self._session.warnings:
-            self.report({'WARNING'}, w)
+        self._report_new_warnings(self._session.warnings)
         self._timer = modal_timers.add(self._session, context, obj.arap.live_interval)
         context.window_manager.modal_handler_add(self)
         _live_status(True)
@@ -113,6 +119,7 @@ class ARAP_OT_live(bpy.types.Operator):
                     session.reattach(bpy.data.objects, context.scene)
                     self.report({'INFO'}, "Undo: the handles went back one step; Live goes on (Esc cancels)")
                 changed = session.update() is not None
+                self._report_new_warnings(session.new_warnings)
                 if changed:
                     self._warn_collapsed(session)
                     self._warn_contact(session)
@@ -123,6 +130,12 @@ class ARAP_OT_live(bpy.types.Operator):
             except errors.SessionError as exc:
                 return self._end(context, apply=False, error=exc)
         return {'PASS_THROUGH'}
+
+    def _report_new_warnings(self, warnings):
+        """The set-up's warnings at the start, the bind's once it is done (on its thread)."""
+        for w in warnings:
+            self.report({'WARNING'}, w)
+        self._session.new_warnings = []
 
     def _warn_collapsed(self, session):
         if session.collapsed != self._collapsed:

@@ -16,6 +16,7 @@ import numpy as np
 from . import constraints, handles, meshio, solver_cache
 from ..errors import SetupError
 from ..native_loader import native
+from .background_bind import BackgroundBind
 from .problem import (Problem, bind_warnings, collapsed_handles_warning, contact_warning, solver_options,
                       sync_matrices, unconverged_warning)
 
@@ -57,7 +58,8 @@ class DeformJob:
     has finished: a stopped or failed job leaves it untouched.
     """
 
-    def __init__(self, obj, scene=None, max_iterations=None, tolerance=None, init=None, iterations_from=None):
+    def __init__(self, obj, scene=None, max_iterations=None, tolerance=None, init=None, iterations_from=None,
+                 bind_on_thread=False):
         t0 = time.perf_counter()
         self.obj, self.scene = obj, scene
         sync_matrices()
@@ -66,10 +68,17 @@ class DeformJob:
         self.topology = None    # the mesh's connectivity when the worker started (run() needs none)
         self.pose = self.problem.pose(obj, scene)
         self.targets = self.problem.targets(self.pose)
-        self.solver, self.bind_ms, self.cached = solver_cache.bound_solver(obj, self.problem)
-        self.solver.configure(**solver_options(obj.arap, max_iterations=max_iterations, tolerance=tolerance,
-                                               init=init))
-        self.max_iterations = self.solver.max_iterations
+        self._overrides = dict(max_iterations=max_iterations, tolerance=tolerance, init=init)
+        self.max_iterations = solver_options(obj.arap, **self._overrides)["max_iterations"]
+        # bind_on_thread (the modal operator): a bind start() runs on a thread of its own, poll() waits for.
+        self._cache_key, self.solver = solver_cache.lookup(obj, self.problem)
+        self.cached = self.solver is not None
+        self.bind_ms = 0.0
+        self.binding = None
+        if self.solver is None and not bind_on_thread:
+            self._bound(self.problem.bind())
+        elif self.solver is not None:
+            self.solver.configure(**solver_options(obj.arap, **self._overrides))
         # Where the cap was set, for the warning when the pose does not settle (problem.RAISE_ITERATIONS).
         self.iterations_from = iterations_from or ('SETTINGS' if max_iterations is None else 'ARGUMENT')
         self.positions = np.empty(len(self.problem.rest32), np.float32)
@@ -80,9 +89,22 @@ class DeformJob:
         """Solve here and write; the DeformResult."""
         return self._finish(self.solver.solve(self.targets, out=self.positions))
 
+    def _bound(self, solver):
+        """`solver` was just bound: kept for the next Deform of the same inputs, configured."""
+        self.solver, self.bind_ms = solver, solver.bind_ms
+        solver_cache.keep(self.obj, self._cache_key, solver)
+        solver.configure(**solver_options(self.obj.arap, **self._overrides))
+
     def start(self):
-        """Solve on the worker's thread; poll() until it returns the DeformResult."""
+        """Solve on the worker's thread (after binding on a thread of its own, when the job was made with
+        bind_on_thread and no bound solver was kept); poll() until it returns the DeformResult."""
         self.topology = meshio.Topology(self.obj.data)
+        if self.solver is None:
+            self.binding = BackgroundBind(self.problem, self.obj.arap, **self._overrides)
+        else:
+            self._start_worker()
+
+    def _start_worker(self):
         self.worker = native().SolveWorker(self.solver, max_iterations=self.max_iterations)
         self.worker.post(self.targets)
 
@@ -93,7 +115,16 @@ class DeformJob:
 
     def poll(self):
         """The DeformResult once the worker's solve is done (the mesh written), else None. SetupError (the
-        worker stopped, nothing written) when the object was deleted or its mesh changed meanwhile."""
+        worker stopped, nothing written) when the object was deleted or its mesh changed meanwhile; the
+        bind's error (out of memory, a bad mesh) when it failed on its thread."""
+        if self.binding is not None:
+            self.check(full=False)
+            solver = self.binding.solver()
+            if solver is None:
+                return None
+            self.binding = None
+            self._bound(solver)
+            self._start_worker()
         try:
             self.check(full=False)
             result = self.worker.take(self.positions)
@@ -122,7 +153,9 @@ class DeformJob:
                              "run Deform again" % self.name)
 
     def stop(self):
-        """Stop the worker (the solve in progress ends after its iteration); the mesh stays as it is."""
+        """Stop the worker (the solve in progress ends after its iteration; a bind in progress is left to
+        finish unused); the mesh stays as it is."""
+        self.binding = None
         if self.worker is not None:
             self.worker.stop()
             self.worker = None

@@ -19,6 +19,7 @@ from .dependency_loops import DependencyLoop
 from ..errors import SessionError, SetupError
 from ..native_loader import native
 from ..persistence.older_settings import setting
+from .background_bind import BackgroundBind
 from .problem import Problem, bind_warnings, configured_solver, pose_contact_stop, sync_matrices
 
 
@@ -66,7 +67,7 @@ class LiveSession:
     newest finished pose.
     """
 
-    def __init__(self, obj, scene=None, max_iterations=None, write=True):
+    def __init__(self, obj, scene=None, max_iterations=None, write=True, bind_on_thread=False):
         constraints.check_object(obj)
         if sessions.session_for(obj) is not None:
             # A second session would take the first one's pose as its rest shape.
@@ -86,13 +87,20 @@ class LiveSession:
         self.contact = None     # problem.ContactStop: Self Contact stopped the last settled pose short
         s = obj.arap
         self.frame_ms = s.live_frame_ms
-        self.solver = configured_solver(self.problem, s, warm=True, time_budget_ms=self.frame_ms,
-                                        max_iterations=max_iterations or setting(s, "live_max_iterations"))
-        self.bind_ms = self.solver.bind_ms
+        options = dict(warm=True, time_budget_ms=self.frame_ms,
+                       max_iterations=max_iterations or setting(s, "live_max_iterations"))
+        # bind_on_thread (the Live operator): the bind runs on a thread of its own and update() shows the
+        # rest until it is done (the status says "binding"); else it is done here.
+        self.solver = None
+        self.binding = BackgroundBind(self.problem, s, **options) if bind_on_thread else None
+        self.bind_ms = None
         self.buffer = np.empty(len(self.problem.rest32), np.float32)
         self.write_enabled = write
         self.output = meshio.Output(obj, self.problem.output)
-        self.warnings = list(self.problem.setup.warnings) + bind_warnings(self.solver.mesh_report(), self.problem, s)
+        self.warnings = list(self.problem.setup.warnings)
+        self.new_warnings = []   # the bind's warnings once it is done on its thread (the operator reports them)
+        if self.binding is None:
+            self._bound(configured_solver(self.problem, s, **options))
         self.last = None
         self.active = True
         self.converged = False
@@ -103,6 +111,23 @@ class LiveSession:
         if write:
             self.output.ensure()
         sessions.add(self)
+
+    def _bound(self, solver):
+        self.solver = solver
+        self.bind_ms = solver.bind_ms
+        self.new_warnings = bind_warnings(solver.mesh_report(), self.problem, self.obj.arap)
+        self.warnings += self.new_warnings
+
+    def is_bound(self, wait=False):
+        """True once the solver is bound (with `wait`, waits for a bind on its thread). Raises the bind's
+        error (out of memory, a bad mesh)."""
+        if self.solver is None:
+            solver = self.binding.solver(wait)
+            if solver is None:
+                return False
+            self.binding = None
+            self._bound(solver)
+        return True
 
     def check(self, full=False):
         """Raise SessionError when the object can no longer be posed. Element
@@ -147,6 +172,7 @@ class LiveSession:
         had converged (settled)."""
         self.stop_worker()
         self.check()
+        self.is_bound(wait=True)
         t0 = time.perf_counter()
         pose = self._read_pose()
         still = pose.key == self._pose_key
@@ -175,6 +201,8 @@ class LiveSession:
         waits for a solve (the worker goes on between ticks until the pose
         has settled, then sleeps)."""
         self.check()
+        if not self.is_bound():
+            return None
         t0 = time.perf_counter()
         if self.worker is None:
             self.worker = native().SolveWorker(self.solver, max_iterations=self._settle_iterations)

@@ -22,20 +22,32 @@ def _digest(*arrays):
     return h.digest()
 
 
-def bound_solver(obj, problem):
-    """(solver, bind_ms, cached): a solver bound to `problem` (problem.Problem)
-    of `obj`; binds only when the inputs changed since the last call for `obj`.
-    Its options are the caller's to set."""
+def lookup(obj, problem):
+    """(key, solver): the solver bound to `problem` (problem.Problem) of `obj` when the inputs did not change
+    since it was kept, else None; `key` names those inputs for keep()."""
     stiff = np.empty(0) if problem.stiffness is None else problem.stiffness
     key = (len(problem.rest64), _digest(problem.rest64, problem.tris, problem.setup.constrained, stiff),
            problem.weights, tuple(sorted(problem.bind_options.items())))
     hit = _cache.get(obj.as_pointer())
-    if hit is not None and hit[0] == key:
-        return hit[1], 0.0, True
-    solver = problem.bind()
+    return key, (hit[1] if hit is not None and hit[0] == key else None)
+
+
+def keep(obj, key, solver):
+    """Remember `solver`, bound to the inputs `key` of `obj` (lookup())."""
     _cache[obj.as_pointer()] = (key, solver)
     while len(_cache) > _CACHE_SIZE:
         _cache.pop(next(iter(_cache)))
+
+
+def bound_solver(obj, problem):
+    """(solver, bind_ms, cached): a solver bound to `problem` (problem.Problem)
+    of `obj`; binds only when the inputs changed since the last call for `obj`.
+    Its options are the caller's to set."""
+    key, solver = lookup(obj, problem)
+    if solver is not None:
+        return solver, 0.0, True
+    solver = problem.bind()
+    keep(obj, key, solver)
     return solver, solver.bind_ms, False
 
 

@@ -150,7 +150,7 @@ def draw_status(layout, obj, s, session):
         for text, icon in auto_lines(obj):
             col.label(text=text, icon=icon)
     if session is not None:
-        state = "settled" if session.settled else "settling"
+        state = "binding" if session.solver is None else "settled" if session.settled else "settling"
         if session.last is not None:
             state += ", %.1f ms per update" % session.last.main_thread_ms
         col.label(text="Live: " + state, icon='INFO')

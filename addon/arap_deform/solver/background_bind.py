@@ -12,7 +12,7 @@ thread touches no bpy data.
 import os
 import threading
 
-from ..solver.problem import solver_options
+from .problem import solver_options
 
 
 class BackgroundBind:
