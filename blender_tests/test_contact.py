@@ -87,6 +87,10 @@ class SelfContact(unittest.TestCase):
         np.testing.assert_allclose(coords[self.top], self.top_targets(POSE), atol=1e-5)
         np.testing.assert_allclose(coords[self.fixed], self.rest[self.fixed], atol=1e-6)
         self.assertFalse([w for w in r.warnings if "Self Contact" in w], r.warnings)
+        # The report says what Self Contact did: the folded bar is held apart at close pairs.
+        self.assertEqual(len(r.notes), 1, r.notes)
+        self.assertRegex(r.notes[0], r"^Self Contact held [1-9][0-9]* close pairs of the surface apart$")
+        self.assertEqual(free.notes, [])
         solver = solver_cache._cache[self.obj.as_pointer()][1]
         self.assertEqual(solver.contact, "self")
 
@@ -95,8 +99,9 @@ class SelfContact(unittest.TestCase):
         self.deform(gentle, False)
         free = U.coords(self.obj)
         self.assertEqual(self.crossings(free), 0)
-        self.deform(gentle, True)
+        r = self.deform(gentle, True)
         np.testing.assert_array_equal(U.coords(self.obj), free)
+        self.assertEqual(r.notes, ["Self Contact: no part of the surface came near another"])
 
     def test_a_handle_pushed_through_the_mesh_stops_short_and_is_named(self):
         free = self.deform(THROUGH, False)
@@ -148,6 +153,9 @@ class SelfContact(unittest.TestCase):
                         s.step()
                         counts.append(self.crossings())
                 written[contact] = counts
+                # Live's lines say what Self Contact does (nothing when it is off).
+                held = [line for line in live_ops.live_status_lines() if line.startswith("Self Contact held")]
+                self.assertEqual(len(held), 1 if contact else 0, live_ops.live_status_lines())
                 self.assertTrue(np.isfinite(U.coords(self.obj)).all())
                 self.assertGreater(np.ptp(U.coords(self.obj)[:, 0]), 1.5)   # it was posed
             finally:
@@ -161,7 +169,8 @@ class SelfContact(unittest.TestCase):
         try:
             s.step()
             self.assertIsNone(s.contact)   # nothing moved: nothing stopped
-            self.assertFalse([line for line in live_ops.live_status_lines() if "Self Contact" in line])
+            self.assertFalse([line for line in live_ops.live_status_lines() if "stopped" in line])
+            self.assertIn("Self Contact: no part of the surface came near another", live_ops.live_status_lines())
             op = types.SimpleNamespace(_contact=None, reports=[])
             op.report = lambda kind, message: op.reports.append((set(kind), message))
             for reached in (0.42, 0.5):   # the same handle stopped again: reported once, the lines follow

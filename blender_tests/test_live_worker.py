@@ -290,6 +290,11 @@ class DeformOnTheWorker(unittest.TestCase):
         while len(seen) < 3 and time.monotonic() < end:
             seen.add(job.progress[0])
             time.sleep(0.001)
+        # The viewport's line gives the time so far and at most how much more (the rate times the cap left).
+        head = deform_ops_lines(job)[0]
+        self.assertRegex(head, r"iterations, energy .*; [0-9]+ s so far, at most [0-9]+ (s|min) more$")
+        spent, left = job.time_left()
+        self.assertGreater(left, spent)   # most of its 10000 iterations are still to come
         job.stop()
         self.assertGreaterEqual(len(seen), 3)
         self.assertLess(max(seen), 10000)

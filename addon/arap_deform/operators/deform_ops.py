@@ -66,6 +66,8 @@ class ARAP_OT_deform(bpy.types.Operator):
     def _report_result(self, result):
         for w in result.warnings:
             self.report({'WARNING'}, w)
+        for note in result.notes:
+            self.report({'INFO'}, note)
         self.report({'INFO'}, "ARAP: %d iterations, energy %.6g, %.1f ms (bind %.1f ms)"
                     % (result.iterations, result.energy, result.solve_ms, result.bind_ms))
 
@@ -153,7 +155,17 @@ def deform_status_lines():
         iterations, energy = job.progress
         head = "ARAP Deform on '%s': %d of at most %d iterations, energy %.5g" % (
             job.name, iterations, job.max_iterations, energy)
-    return [head, "Esc: stop (the mesh stays as it was)"]
+        timing = job.time_left()
+        if timing is not None:
+            head += "; %s so far, at most %s more" % (_duration(timing[0]), _duration(timing[1]))
+    lines = [head]
+    if job.problem.has_contact:
+        lines.append("Self Contact is on: each iteration checks the surface for crossings (slower)")
+    return lines + ["Esc: stop (the mesh stays as it was)"]
+
+
+def _duration(seconds):
+    return "%.0f s" % seconds if seconds < 120 else "%.0f min" % (seconds / 60)
 
 
 class _ApplyToActiveObject:

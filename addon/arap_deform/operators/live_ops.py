@@ -25,6 +25,8 @@ def live_status_lines():
                      % (last.main_thread_ms, last.iterations, last.energy))
     if session.contact is not None:
         lines.append(session.contact.status())
+    if session.contact_held is not None:
+        lines.append(session.contact_held)
     return lines + ["Enter: apply   Esc: cancel"]
 
 

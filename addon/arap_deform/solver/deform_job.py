@@ -17,14 +17,14 @@ from . import constraints, handles, meshio, solver_cache
 from ..errors import SetupError
 from ..native_loader import native
 from .background_bind import BackgroundBind
-from .problem import (Problem, bind_warnings, collapsed_handles_warning, contact_warning, solver_options,
-                      sync_matrices, unconverged_warning)
+from .problem import (Problem, bind_warnings, collapsed_handles_warning, contact_held, contact_warning,
+                      solver_options, sync_matrices, unconverged_warning)
 
 
 class DeformResult:
     """What a solve did: energies, timings (ms), warnings, mesh checks."""
 
-    def __init__(self, stats, bind_ms, io_ms, output, warnings, report, cached_bind):
+    def __init__(self, stats, bind_ms, io_ms, output, warnings, report, cached_bind, notes=()):
         self.initial_energy = stats.initial_energy
         self.energies = list(stats.energy)
         self.iterations = stats.iterations
@@ -36,6 +36,7 @@ class DeformResult:
         self.io_ms = io_ms
         self.output = output
         self.warnings = warnings
+        self.notes = list(notes)   # what the solve did that is not a problem (Self Contact's pairs held apart)
         self.mesh_report = report
         self.cached_bind = cached_bind
 
@@ -107,6 +108,16 @@ class DeformJob:
     def _start_worker(self):
         self.worker = native().SolveWorker(self.solver, max_iterations=self.max_iterations)
         self.worker.post(self.targets)
+        self.solving_since = time.monotonic()
+
+    def time_left(self):
+        """(seconds solving so far, at most how many more): the rate so far times the iterations its cap
+        leaves; None before the first iteration. Most solves settle well before the cap."""
+        iterations = self.progress[0]
+        if self.worker is None or iterations == 0:
+            return None
+        spent = time.monotonic() - self.solving_since
+        return spent, spent / iterations * max(0, self.max_iterations - iterations)
 
     @property
     def progress(self):
@@ -175,8 +186,9 @@ class DeformJob:
             if w:
                 warnings.append(w)
         io_ms = self._prepare_ms + (time.perf_counter() - t0) * 1e3
+        held = contact_held(problem, stats)
         return remember_result(obj, DeformResult(stats, self.bind_ms, io_ms, problem.output, warnings, report,
-                                                 self.cached))
+                                                 self.cached, [held] if held else []))
 
 
 def deform(obj, scene=None, max_iterations=None, tolerance=None, init=None, iterations_from=None):

@@ -20,7 +20,7 @@ from ..errors import SessionError, SetupError
 from ..native_loader import native
 from ..persistence.older_settings import setting
 from .background_bind import BackgroundBind
-from .problem import Problem, bind_warnings, configured_solver, pose_contact_stop, sync_matrices
+from .problem import Problem, bind_warnings, configured_solver, contact_held, pose_contact_stop, sync_matrices
 
 
 class FrameStats:
@@ -85,6 +85,7 @@ class LiveSession:
         self.names = (obj.name, [h.empty.name for h in self.problem.setup.handles])
         self.collapsed = []     # handles whose Empty is scaled to almost nothing (the operator warns)
         self.contact = None     # problem.ContactStop: Self Contact stopped the last settled pose short
+        self.contact_held = None   # what Self Contact did in the last solve shown (problem.contact_held)
         s = obj.arap
         self.frame_ms = s.live_frame_ms
         options = dict(warm=True, time_budget_ms=self.frame_ms,
@@ -189,6 +190,7 @@ class LiveSession:
             self.output.write(self.buffer)
         t3 = time.perf_counter()
         self.converged = stats.converged
+        self.contact_held = contact_held(self.problem, stats)
         self._check_contact()
         self.last = FrameStats((t1 - t0) * 1e3, (t2 - t1) * 1e3, (t3 - t2) * 1e3, _last_energy(stats),
                                stats.iterations, (t3 - t0) * 1e3)
@@ -219,6 +221,7 @@ class LiveSession:
         t2 = time.perf_counter()
         stats = result.stats
         self.converged = result.settled and self.worker.settled
+        self.contact_held = contact_held(self.problem, stats)
         self._check_contact()
         self.last = FrameStats((t1 - t0) * 1e3, sum(stats.iteration_ms) + stats.init_ms, (t2 - t1) * 1e3,
                                _last_energy(stats), result.iterations, (t2 - t0) * 1e3)

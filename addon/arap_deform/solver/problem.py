@@ -291,6 +291,17 @@ def contact_stop(problem, stats):
     return ContactStop(handle.group if handle is not None else None, stats.contact_reached)
 
 
+def contact_held(problem, stats):
+    """What Self Contact did in a solve, for the report and the status: how many close pairs of the surface
+    (a point and a triangle, or two edges, within the barrier's reach) it held apart at the end. None when
+    Self Contact is off."""
+    if not problem.has_contact:
+        return None
+    if stats.contact_pairs == 0:
+        return "Self Contact: no part of the surface came near another"
+    return "Self Contact held %d close pairs of the surface apart" % stats.contact_pairs
+
+
 def contact_warning(problem, stats):
     """The warning for a solve Self Contact stopped short, naming the handle and the share of its move made."""
     stop = contact_stop(problem, stats)
