@@ -168,6 +168,44 @@ class Auto(unittest.TestCase):
         api.deform(self.obj, tolerance=self.obj.arap.tolerance)
         np.testing.assert_allclose(posed, U.coords(self.obj), atol=1e-3 * scale_of(posed))
 
+    def test_in_the_viewport_a_large_mesh_is_read_over_several_updates(self):
+        # Blender has no array read of vertex groups: in the viewport they are read a chunk of vertices per
+        # update (here 50 of the bar's 480), the mesh unchanged meanwhile; the pose is the one read at once.
+        meshio = U.addon("meshio")
+        self.empty.location = (0.9, 0.3, 1.7)
+        chunk, interactive = meshio.GROUP_CHUNK, auto._interactive
+        meshio.GROUP_CHUNK, auto._interactive = 50, (lambda: True)
+        try:
+            api.set_auto(self.obj, True)
+            poser = auto._posers[self.obj.as_pointer()]
+            self.assertEqual(poser.status(), "reading the mesh")
+            reads = 1
+            while poser.problem is None:
+                np.testing.assert_array_equal(U.raw_coords(self.obj), self.rest)
+                auto.update_scene(bpy.context.scene)
+                reads += 1
+                self.assertLess(reads, 100, "the reading never ended")
+            self.assertGreaterEqual(reads, 2)   # (an update can take two steps: its depsgraph's handler runs one)
+            at_once = problem.Problem(self.obj, bpy.context.scene)
+            np.testing.assert_array_equal(poser.problem.setup.constrained, at_once.setup.constrained)
+            self.settle_on_the_worker(poser)
+        finally:
+            meshio.GROUP_CHUNK, auto._interactive = chunk, interactive
+        posed = U.coords(self.obj)
+        api.set_auto(self.obj, False)
+        api.deform(self.obj, tolerance=self.obj.arap.tolerance)
+        np.testing.assert_allclose(posed, U.coords(self.obj), atol=1e-3 * scale_of(posed))
+
+    def test_opening_a_file_while_the_timer_runs_lets_the_next_update_start_it_again(self):
+        # Loading a file removes Blender's non-persistent timers: an opened file whose Auto objects are
+        # still binding must get the timer back, or they stay "binding" until something else moves.
+        path = os.path.join(tempfile.mkdtemp(), "timer.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=path)
+        auto._timer_on = True   # as while a pose settles in the viewport
+        bpy.ops.wm.open_mainfile(filepath=path)
+        self.assertFalse(auto._timer_on)
+        self.obj = bpy.data.objects["Bar"]
+
     def test_an_error_of_a_bind_on_its_own_thread_stops_auto_with_its_message(self):
         release = threading.Event()
 

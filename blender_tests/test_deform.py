@@ -280,5 +280,54 @@ class Deform(unittest.TestCase):
         self.assertLess(g / g0, 1e-2, "gradient on free vertices %.3g vs initial %.3g" % (g, g0))
 
 
+class MeshReading(unittest.TestCase):
+    """What a bind reads from Blender, read the fast ways: the triangles and the vertex groups."""
+
+    def setUp(self):
+        U.clear_scene()
+        # Triangles, quads (one concave, which Blender cuts along its other diagonal) and a pentagon.
+        verts = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (2, 0, 0), (2, 1, 0), (1.9, 0.5, 0.3),
+                 (3, 0, 0), (3.2, 0.6, 0), (2.9, 1.2, 0.2), (2.4, 1.5, 0), (0.5, 2, 0)]
+        faces = [(0, 1, 2, 3), (1, 4, 6, 5, 2), (4, 7, 8, 6), (6, 8, 9, 10), (3, 2, 11), (2, 5, 10, 11)]
+        mesh = bpy.data.meshes.new("Mixed")
+        mesh.from_pydata(verts, [], faces)
+        mesh.update()
+        self.obj = bpy.data.objects.new("Mixed", mesh)
+        bpy.context.scene.collection.objects.link(self.obj)
+
+    def test_triangles_are_blenders_own(self):
+        meshio = U.addon("meshio")
+        mesh = self.obj.data
+        mesh.calc_loop_triangles()
+        own = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+        mesh.loop_triangles.foreach_get("vertices", own)
+        np.testing.assert_array_equal(meshio.triangles(mesh), own.reshape(-1, 3))
+
+    def test_groups_read_in_steps_are_read_as_in_one(self):
+        meshio = U.addon("meshio")
+        a = self.obj.vertex_groups.new(name="a")
+        a.add([0, 3, 7], 1.0, 'REPLACE')
+        a.add([5], 0.0, 'REPLACE')   # weight 0: not a member
+        b = self.obj.vertex_groups.new(name="b")
+        b.add([1, 2, 11], 0.25, 'REPLACE')
+        b.add([7], 0.5, 'REPLACE')
+        steps = meshio.read_groups_in_steps(self.obj, ["a", "b"], weights_of="b", chunk=2)
+        yields = 0
+        while True:
+            try:
+                next(steps)
+                yields += 1
+            except StopIteration as done:
+                members, weights = done.value
+                break
+        self.assertEqual(yields, 5)   # 12 vertices, 2 at a time: a yield between chunks
+        self.assertEqual(members["a"].tolist(), [0, 3, 7])
+        self.assertEqual(members["b"].tolist(), [1, 2, 7, 11])
+        np.testing.assert_array_equal(weights, meshio.group_weights(self.obj, "b"))
+        self.assertEqual(weights[7], 0.5)
+        self.assertEqual({k: v.tolist() for k, v in meshio.group_members(self.obj, ["a", "b"]).items()},
+                         {k: v.tolist() for k, v in members.items()})
+
+
 if __name__ == "__main__":
     unittest.main()

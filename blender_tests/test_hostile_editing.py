@@ -248,9 +248,12 @@ class AutoFollowsItsObject(unittest.TestCase):
 
     def test_an_object_taken_out_of_the_scene_stops_its_worker(self):
         poser = auto.AutoPoser(self.obj, bpy.context.scene)
+        # Evaluated before Auto is on: the poser's own first writes (its rest attribute) must not have the
+        # depsgraph handler pose the mesh here, in --background's way.
+        depsgraph = bpy.context.evaluated_depsgraph_get()
         self.obj.arap["auto"] = True
         auto._posers[self.obj.as_pointer()] = poser
-        poser.update(self.obj, bpy.context.evaluated_depsgraph_get(), on_worker=True)   # a preview under way
+        poser.update(self.obj, depsgraph, on_worker=True)   # a preview under way
         self.assertIsNotNone(poser.worker)
         for collection in self.obj.users_collection:
             collection.objects.unlink(self.obj)

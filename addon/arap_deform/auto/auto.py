@@ -71,18 +71,17 @@ class AutoPoser:
     def __init__(self, obj, scene, on_worker=False):
         self.obj = obj   # Blender invalidates it when the object is deleted (alive())
         self.setup_key = setup_key(obj)
-        self.problem = problem.Problem(obj, scene)
-        # In the viewport the bind runs on a thread of its own (a file just opened, an undo, Auto
-        # turned on): the mesh shows what it showed until the first pose is ready.
+        self.fingerprint = problem.topology_counts(obj.data)
+        # In the viewport (a file just opened, an undo, Auto turned on) the mesh is read over several
+        # updates (the vertex groups a chunk at a time) and the bind runs on a thread of its own: Blender's
+        # thread never waits long, and the mesh shows what it showed until the first pose is ready.
+        self.reading = None      # the steps of problem.Problem.read_in_steps, while they run
+        self.problem = None
         self.binding = None
         self.solver = None
-        if on_worker:
-            self.binding = BackgroundBind(self.problem, obj.arap, warm=True)
-        else:
-            self.solver = problem.configured_solver(self.problem, obj.arap, warm=True)
-        self.output = meshio.Output(obj, self.problem.output)
-        self.fingerprint = problem.topology_counts(obj.data)
-        self.buffer = np.empty(len(self.problem.rest32), np.float32)   # in the viewport: the preview shown
+        self.output = None
+        self.buffer = None       # in the viewport: the preview shown
+        self.warnings = []
         self.cold = None         # the viewport's cold solve is taken here (its iterates are not shown)
         self.cache = {}          # pose key -> (float32 positions, handle transforms)
         self.contacts = {}       # pose key -> problem.ContactStop, for the cached poses Self Contact stopped short
@@ -95,7 +94,6 @@ class AutoPoser:
         self.current = None      # handle transforms of the solver's current state
         self.state_key = None    # the pose key the solver's current state belongs to
         self.by_frame = {}       # frame -> key of its last settled pose (the next frame starts there)
-        self.warnings = list(self.problem.setup.warnings)
         self.name = obj.name
         self.settled = True          # the shown pose is the settled one of the handles' current place
         self.settled_at = 0.0        # time.monotonic() when it last settled
@@ -105,6 +103,34 @@ class AutoPoser:
         self.finals = None           # FinalPoses: the played frames' final poses, on a second solver
         self.frame_keys = {}         # frame -> the pose key last shown there in the viewport
         self.frame_range = (1, 1)    # the scene's, when last updated
+        if on_worker:
+            self.reading = problem.Problem.read_in_steps(obj, scene)
+        else:
+            self._read(problem.Problem(obj, scene), on_worker)
+
+    def _read(self, read, on_worker):
+        """The object's Problem is read: bind it (on a thread of its own in the viewport) and note what
+        turning Auto on creates (_created)."""
+        self.problem = read
+        if on_worker:
+            self.binding = BackgroundBind(read, self.obj.arap, warm=True)
+        else:
+            self.solver = problem.configured_solver(read, self.obj.arap, warm=True)
+        self.output = meshio.Output(self.obj, read.output)
+        self.buffer = np.empty(len(read.rest32), np.float32)
+        self.warnings = list(read.setup.warnings)
+        _created(self.obj, self)
+
+    def _read_step(self):
+        """One step of reading the object (viewport); True once the Problem is read and its bind started."""
+        if self.reading is not None:
+            try:
+                next(self.reading)
+                return False
+            except StopIteration as done:
+                self.reading = None
+                self._read(done.value, on_worker=True)
+        return True
 
     def alive(self):
         """False once the object this poser was made for is deleted (a new object can land at its address)."""
@@ -119,6 +145,9 @@ class AutoPoser:
         (False: iterations remain, call again). on_worker: solve on the
         worker's thread and show its newest pose (the viewport); else here,
         to the end (--background, renders)."""
+        if not self._read_step():
+            self._settled(False)
+            return False
         # A handle Empty that follows this mesh would make each pose ask for another: stop before solving.
         self.problem.check_loops(obj)
         if not self._bound(wait=not on_worker):
@@ -275,6 +304,8 @@ class AutoPoser:
     def status(self):
         """'binding', 'settling, N iterations' or 'settled after N iterations' (the last pose solved), and
         once frames were played, how many of the scene's range have their final pose cached."""
+        if self.problem is None:
+            return "reading the mesh"
         if self.solver is None:
             return "binding"
         if not self.settled:
@@ -420,7 +451,6 @@ def _poser(obj, scene, on_worker=False):
         raise SetupError("'%s' changed its vertices or faces: Auto posing stopped" % obj.name)
     if poser is None:
         poser = _posers[uid] = AutoPoser(obj, scene, on_worker)
-        _created(obj, poser)
     return poser
 
 
@@ -508,7 +538,7 @@ def restore_rest(obj):
 def _restore_in_edit_mode(obj, poser):
     """Edit Mode owns the mesh: show the rest shape there (the edit then
     applies to the rest shape, not to a pose)."""
-    if poser is None:
+    if poser is None or poser.problem is None:
         return
     if poser.output.mode == 'SHAPE_KEY':
         obj.active_shape_key_index = 0   # the Basis: the rest shape
@@ -692,7 +722,9 @@ def _on_frame_change(scene, depsgraph=None):
 
 @persistent
 def _on_load(_file=None, _unused=None):
+    global _timer_on
     forget()
+    _timer_on = False   # loading a file removed the timer (it is not persistent): the next update starts it
     if not bpy.app.background:
         # Opening a file changes nothing Blender reports to the handlers: pose its Auto objects from the
         # event loop once the file is in (--background: the first frame change or render does).

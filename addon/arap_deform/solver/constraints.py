@@ -84,18 +84,27 @@ def auto_poser_of_mesh(obj):
     return None
 
 
-def gather(obj, scene=None):
-    """Validate obj.arap and return a Setup; raises SetupError. Which vertex
-    follows which group is the core's rule (native constraint_set, docs/design.md,
-    "Constraints: the rules"): fixed first, fixed wins, the first handle wins."""
-    check_object(obj)
+def group_names(obj):
+    """The vertex groups a bind reads: the fixed group and the handles' (SetupError when one is missing)."""
     s = obj.arap
     names = [s.fixed_group] if s.fixed_group else []
     names += [h.group for h in s.handles if h.group]
     for name in names:
         if name not in obj.vertex_groups:
             raise SetupError("Vertex group '%s' does not exist on '%s'" % (name, obj.name))
-    members = meshio.group_members(obj, names)
+    return names
+
+
+def gather(obj, scene=None, members=None):
+    """Validate obj.arap and return a Setup; raises SetupError. Which vertex
+    follows which group is the core's rule (native constraint_set, docs/design.md,
+    "Constraints: the rules"): fixed first, fixed wins, the first handle wins.
+    `members`: group_names()' groups as meshio.read_groups_in_steps() read them (else read here)."""
+    check_object(obj)
+    s = obj.arap
+    names = group_names(obj)
+    if members is None:
+        members = meshio.group_members(obj, names)
     for name in names:
         if len(members[name]) == 0:
             raise SetupError("Vertex group '%s' has no vertices (assign some with weight > 0)" % name)
@@ -131,15 +140,26 @@ def handle_of(setup, vertex):
     return None
 
 
-def stiffness_of(obj):
-    """Per-vertex stiffness for the solver (None when no Stiff Group is set):
-    1 + (Stiffness - 1) * weight in the Stiff Group. Raises SetupError."""
+def stiff_group(obj):
+    """The Stiff Group's name, None when none is set; SetupError when it is missing."""
     s = obj.arap
     if not s.stiff_group:
         return None
     if s.stiff_group not in obj.vertex_groups:
         raise SetupError("Stiff group '%s' does not exist on '%s'" % (s.stiff_group, obj.name))
-    return 1.0 + (s.stiffness - 1.0) * meshio.group_weights(obj, s.stiff_group)
+    return s.stiff_group
+
+
+def stiffness_of(obj, weights=None):
+    """Per-vertex stiffness for the solver (None when no Stiff Group is set):
+    1 + (Stiffness - 1) * weight in the Stiff Group. Raises SetupError. `weights`: the Stiff Group's, read
+    already (meshio.read_groups_in_steps)."""
+    name = stiff_group(obj)
+    if name is None:
+        return None
+    if weights is None:
+        weights = meshio.group_weights(obj, name)
+    return 1.0 + (obj.arap.stiffness - 1.0) * weights
 
 
 # Farthest a handle may move its vertices, in sizes of the mesh: there float32 coordinates (Blender's) round

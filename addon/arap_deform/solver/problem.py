@@ -88,22 +88,39 @@ class Problem:
     targets()), the one way Deform, Live, the bake and Auto mode get them.
     `rest32`: another flat float32 rest shape than the one Deform uses (the bake's)."""
 
-    def __init__(self, obj, scene, rest32=None):
-        self.setup = constraints.gather(obj, scene)
+    def __init__(self, obj, scene, rest32=None, groups=None, tris=None):
+        members, stiff_weights = groups if groups is not None else (None, None)
+        self.setup = constraints.gather(obj, scene, members)
         self.check_loops(obj)
         s = obj.arap
         self.output = meshio.resolve_output(obj, s.output)
         self.rest32 = meshio.rest_coords(obj, self.output) if rest32 is None else rest32
         self.rest64 = self.rest32.astype(np.float64).reshape(-1, 3)
-        self.tris = meshio.triangles(obj.data)
+        self.tris = meshio.triangles(obj.data) if tris is None else tris
         if len(self.tris) == 0:
             raise SetupError("'%s' has no faces: ARAP needs a surface" % obj.name)
         self.rest_constrained = self.rest64[self.setup.constrained]
         self._targets = np.empty_like(self.rest_constrained)
         self.weights = WEIGHT_NAMES[s.weights]
-        self.stiffness = constraints.stiffness_of(obj)
+        self.stiffness = constraints.stiffness_of(obj, stiff_weights)
         self.bind_options = bind_options(s)
         self.threads = s.threads  # large meshes order and factor in two halves side by side
+
+    @classmethod
+    def read_in_steps(cls, obj, scene):
+        """Generator: the Problem of `obj`, read over several calls (the vertex groups a chunk of vertices at
+        a time, meshio.read_groups_in_steps; then the triangles; then the rest), so that Blender's thread goes
+        on in between; the Problem is the generator's value. The object may change between steps: the caller
+        checks it is still the same."""
+        constraints.check_object(obj)
+        groups = yield from meshio.read_groups_in_steps(obj, constraints.group_names(obj),
+                                                        constraints.stiff_group(obj))
+        if len(obj.data.vertices) > meshio.GROUP_CHUNK:
+            yield
+        tris = meshio.triangles(obj.data)
+        if len(obj.data.vertices) > meshio.GROUP_CHUNK:
+            yield
+        return cls(obj, scene, groups=groups, tris=tris)
 
     @property
     def has_contact(self):
