@@ -214,6 +214,9 @@ class SelfContact(unittest.TestCase):
         self.assertEqual(stop.warning(), "Handle 'top' stopped at %d%% of its move: going further would make "
                          "the surface pass through itself (Self Contact)" % stop.percent)
         self.assertEqual(stop.status(), "Self Contact: handle 'top' stopped at %d%%" % stop.percent)
+        # The panel says what Self Contact did in that pose's solve.
+        held = [text for text, _icon in auto.panel_lines(self.obj) if text.startswith("Self Contact held")]
+        self.assertEqual(len(held), 1, auto.panel_lines(self.obj))
 
     def test_bake_never_crosses(self):
         self.obj.arap.contact = True

@@ -86,6 +86,8 @@ class AutoPoser:
         self.cache = {}          # pose key -> (float32 positions, handle transforms)
         self.contacts = {}       # pose key -> problem.ContactStop, for the cached poses Self Contact stopped short
         self.contact = None      # the ContactStop of the pose written, if it was stopped short
+        self.held = {}           # pose key -> problem.contact_held's line of its solve (Self Contact on)
+        self.contact_held = None   # that line for the pose written
         self.cache_bytes = 0
         self.written = None      # pose key of the mesh's current coordinates
         self.pending = None      # pose key being solved across updates (by the worker, in the viewport)
@@ -168,6 +170,7 @@ class AutoPoser:
             self.stop_worker()
             self.pending = None
             self.contact = self.contacts.get(key)
+            self.contact_held = self.held.get(key)
             self._write(hit[0], key)
             self._settled(True)
             return True
@@ -188,8 +191,9 @@ class AutoPoser:
         self.pending = None
         self.state_key, self.current = key, [t.copy() for t in pose.transforms]
         self.contact = problem.contact_stop(self.problem, stats)
+        self.contact_held = problem.contact_held(self.problem, stats)
         self._write(self.buffer, key)
-        self._remember(key, self.buffer.copy(), pose.transforms, self.contact)
+        self._remember(key, self.buffer.copy(), pose.transforms, self.contact, self.contact_held)
         self._settled(True)
         return True
 
@@ -240,9 +244,10 @@ class AutoPoser:
             return False   # the preview stays on screen until the cold solve has settled
         # Read from the pose: each of the worker's solves goes on from the last one's.
         self.contact = problem.pose_contact_stop(self.problem, out, self.targets)
+        self.contact_held = problem.contact_held(self.problem, result.stats)   # the cold solve's last chunk
         self._write(out, key)
         self.pending = None
-        self._remember(key, out.copy(), pose.transforms, self.contact)
+        self._remember(key, out.copy(), pose.transforms, self.contact, self.contact_held)
         self.stop_worker()
         self._settled(True)
         return True
@@ -258,7 +263,8 @@ class AutoPoser:
         if self.finals is None:
             return
         for key, positions, transforms, stats in self.finals.poll():
-            self._remember(key, positions, transforms, problem.contact_stop(self.problem, stats))
+            self._remember(key, positions, transforms, problem.contact_stop(self.problem, stats),
+                           problem.contact_held(self.problem, stats))
         if self.finals.failed is not None and self.finals.failed != "stopped":
             print("ARAP Auto: no final poses while playing '%s' (%s)" % (self.name, self.finals.failed))
             self.finals.stop()
@@ -343,11 +349,14 @@ class AutoPoser:
         if best is not None:
             self.solver.set_positions(best.reshape(-1, 3).astype(np.float64))
 
-    def _remember(self, key, positions, transforms, contact):
-        """Cache a settled pose (and `contact`, its ContactStop, when Self Contact stopped it short)."""
+    def _remember(self, key, positions, transforms, contact, held):
+        """Cache a settled pose (and `contact`, its ContactStop, when Self Contact stopped it short; `held`,
+        what Self Contact did in its solve)."""
         self.cache[key] = (positions, [t.copy() for t in transforms])
         if contact is not None:
             self.contacts[key] = contact
+        if held is not None:
+            self.held[key] = held
         if self.finals is not None:
             self.finals.drop(key)
         self.by_frame[key[0]] = key
@@ -356,6 +365,7 @@ class AutoPoser:
             oldest = next(iter(self.cache))
             old = self.cache.pop(oldest)
             self.contacts.pop(oldest, None)
+            self.held.pop(oldest, None)
             self.cache_bytes -= old[0].nbytes
 
     def _write(self, positions, key):
@@ -397,6 +407,8 @@ def panel_lines(obj):
     lines = [("Auto: " + poser.status(), 'INFO')]
     if poser.contact is not None:
         lines.append((poser.contact.status(), 'ERROR'))
+    if poser.contact_held is not None:
+        lines.append((poser.contact_held, 'INFO'))
     return lines
 
 
