@@ -208,6 +208,48 @@ def add_armature(name, bones):
     return rig
 
 
+def smooth_bone_weights(z, joints, blend):
+    """Weights of the bones of a chain along z, cut at `joints` (increasing heights): 1 inside a bone, a
+    smoothstep over `blend` on each side of a joint, summing to 1. (n, len(joints) + 1) float64."""
+    weights = np.zeros((len(z), len(joints) + 1))
+    up = np.ones(len(z))    # the share of the bones above each joint
+    for k, zj in enumerate(joints):
+        t = np.clip((z - zj + blend) / (2 * blend), 0.0, 1.0)
+        s = t * t * (3 - 2 * t)
+        weights[:, k] = up * (1 - s)
+        up = up * s
+    weights[:, -1] = up
+    return weights
+
+
+def rigged_tube(bones=3, length=6.0, cuts=30, segments=16, blend=0.5, parent_type='OBJECT'):
+    """A cylinder along z (add_cylinder) with an armature of a chain of `bones` connected bones named B0, B1,
+    ... along its axis, smooth weights (smooth_bone_weights, a vertex group per bone), an Armature modifier
+    and the armature as parent (`parent_type` 'OBJECT', as Ctrl+P > With Empty Groups, or 'ARMATURE'). The
+    mesh is active. Returns (mesh object, armature object)."""
+    obj = add_cylinder(vertices=segments, depth=length, cuts=cuts, name="Tube")
+    step = length / bones
+    chain = [("B%d" % k, (0.0, 0.0, -length / 2 + k * step), (0.0, 0.0, -length / 2 + (k + 1) * step),
+              "B%d" % (k - 1) if k else None) for k in range(bones)]
+    rig = add_armature("Rig", chain)
+    z = coords(obj)[:, 2]
+    weights = smooth_bone_weights(z, [-length / 2 + k * step for k in range(1, bones)], blend)
+    for k in range(bones):
+        group = obj.vertex_groups.new(name="B%d" % k)
+        for w in np.unique(weights[:, k][weights[:, k] > 0]):
+            group.add([int(i) for i in np.flatnonzero(weights[:, k] == w)], float(w), 'REPLACE')
+    modifier = obj.modifiers.new("Armature", 'ARMATURE')
+    modifier.object = rig
+    obj.parent = rig
+    obj.parent_type = parent_type
+    for ob in bpy.context.view_layer.objects:
+        ob.select_set(False)
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    bpy.context.view_layer.update()
+    return obj, rig
+
+
 def triangles(obj):
     me = obj.data
     me.calc_loop_triangles()

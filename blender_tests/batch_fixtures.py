@@ -130,6 +130,21 @@ def make_animated(path, frames=(1, 5), vertices=16, cuts=8):
     return _save(path)
 
 
+def make_rigged(path, frames=(1, 4)):
+    """A rigged tube (arap_test_utils.rigged_tube, object "Tube") with Handles from Armature, its last bone
+    keyframed from no twist at the first frame to 180 degrees at the last."""
+    U.clear_scene()
+    obj, rig = U.rigged_tube()
+    api.handles_from_armature(obj)
+    bone = rig.pose.bones["B2"]
+    bone.rotation_mode = 'XYZ'
+    for f, angle in zip(frames, (0.0, 3.14159265)):
+        bone.rotation_euler = (0.0, angle, 0.0)
+        bone.keyframe_insert("rotation_euler", frame=f)
+    bpy.context.scene.frame_set(frames[0])
+    return _save(path)
+
+
 def make_missing_empty(path):
     _obj, empty = posed_bar()
     bpy.data.objects.remove(empty)

@@ -17,8 +17,8 @@ class WaitingWorker:
     def __init__(self, *args, **kwargs):
         self._worker = native_loader.native().SolveWorker(*args, **kwargs)
 
-    def post(self, targets, restart=False):
-        self._worker.post(targets, restart=restart)
+    def post(self, targets, restart=False, start=None):
+        self._worker.post(targets, restart=restart, start=start)
         assert self._worker.wait(60000), "the worker solved nothing in 60 s"
 
     def __getattr__(self, name):

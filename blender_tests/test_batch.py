@@ -370,6 +370,27 @@ class Batch(unittest.TestCase):
                          os.path.join(out_pc, "anim_Bar.pc2"))
         self.assertGreater(data[3][:, 0].max() - data[0][:, 0].max(), 0.5)  # x 0.2 -> 0.8
 
+    def test_bake_follows_the_rig_and_turns_its_modifier_off(self):
+        src, out = self.folder("in"), self.folder("rig")
+        path = F.make_rigged(os.path.join(src, "rig.blend"), frames=(1, 4))
+        code, text = run_batch(path, "--output", out, "--bake", "1:4", "--objects", "Tube")
+        self.assertEqual(code, 0, text)
+        with bpy.data.libraries.load(os.path.join(out, "rig.blend"), link=False) as (_src, dst):
+            dst.objects = ["Tube"]
+        obj = dst.objects[0]
+        try:
+            keys = obj.data.shape_keys.key_blocks
+            self.assertEqual([kb.name for kb in keys], ["Basis"] + [bake.key_name(f) for f in range(1, 5)])
+            first, last = (np.array([v.co for v in keys[bake.key_name(f)].data]) for f in (1, 4))
+            # The last bone's end turned half a turn about the tube's axis: its rim's x flips sign.
+            top = first[:, 2] > 2.9
+            np.testing.assert_allclose(last[top, 0], -first[top, 0], atol=1e-4)
+            # The baked keys are the rig's poses already: its Armature modifier is off in the file.
+            modifier = obj.modifiers["Armature"]
+            self.assertEqual((modifier.show_viewport, modifier.show_render), (False, False))
+        finally:
+            bpy.data.objects.remove(obj)
+
 
 if __name__ == "__main__":
     unittest.main()

@@ -56,9 +56,12 @@ NOT_OPTIONS = {
                # Live's frame budget: the time_budget_ms of each update, where the table's 0 (no limit) is no choice.
                "live_frame_ms",
                # The mark this version writes on save (persistence/older_settings.py).
-               "saved_with"},
-    "ARAP_PG_handle": {"group", "empty", "bind_matrix", "has_bind"},
+               "saved_with",
+               # What ARAP turned off of a rig's Armature deformation while it shows a pose (solver/rig.py).
+               "armature_muted"},
+    "ARAP_PG_handle": {"group", "empty", "armature", "bone", "bind_matrix", "has_bind"},
     "object.arap_add_handle_from_selection": {"group_name"},
+    "object.arap_handles_from_armature": {"threshold"},
     "object.arap_bake": {"frame_start", "frame_end", "output", "filepath"},
 }
 

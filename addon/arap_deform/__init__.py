@@ -33,14 +33,14 @@ import bpy  # noqa: E402,F401 - its presence in locals() marks a reload
 
 from . import api  # noqa: E402,F401 - scripts reach it as <add-on>.api
 from .auto import auto  # noqa: E402
-from .operators import bake_ops, deform_ops, live_ops, saving, setup_ops  # noqa: E402
+from .operators import bake_ops, deform_ops, live_ops, rig_ops, saving, setup_ops  # noqa: E402
 from .persistence import properties, older_settings  # noqa: E402
 from .ui import panels, status_overlay  # noqa: E402
 
 # Order matters: bake_ops' panel is a child of panels' ARAP_PT_main; auto adds Blender handlers.
 # older_settings after properties (it reads Object.arap) and before auto (its load_post handler runs first).
-_modules = (properties, older_settings, setup_ops, deform_ops, live_ops, panels, bake_ops, auto, status_overlay,
-            saving)
+_modules = (properties, older_settings, setup_ops, rig_ops, deform_ops, live_ops, panels, bake_ops, auto,
+            status_overlay, saving)
 
 
 def register():

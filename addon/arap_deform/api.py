@@ -45,7 +45,7 @@ import numpy as np
 
 from . import native_loader
 from .persistence import older_settings
-from .solver import deform_job, problem, solver_cache
+from .solver import constraints, deform_job, problem, rig, solver_cache
 from .solver.deform_job import DeformResult  # noqa: F401
 from .errors import SessionError, SetupError  # noqa: F401
 from .solver.live import LiveSession  # noqa: F401
@@ -107,6 +107,35 @@ def add_handle(obj, group, empty):
     deform_job.capture_bind(item)
     obj.arap.active_handle = len(obj.arap.handles) - 1
     return item
+
+
+def add_bone_handle(obj, group, armature, bone):
+    """Vertex group `group` follows bone `bone` of armature object `armature`, bound at the bone's rest pose:
+    its vertices move as the Armature modifier moves a vertex weighted fully to that bone."""
+    _registered()
+    if group not in obj.vertex_groups:
+        raise SetupError("Vertex group '%s' does not exist on '%s'" % (group, obj.name))
+    if armature is None or armature.type != 'ARMATURE':
+        raise SetupError("A bone handle is driven by a bone of an armature object")
+    if bone not in armature.data.bones:
+        raise SetupError("The armature '%s' has no bone '%s'" % (armature.name, bone))
+    item = obj.arap.handles.add()
+    item.group, item.armature, item.bone = group, armature, bone
+    deform_job.capture_bind(item, at_rest=True)
+    obj.arap.active_handle = len(obj.arap.handles) - 1
+    return item
+
+
+def handles_from_armature(obj, threshold=None, armature=None):
+    """One handle per deform bone of the armature deforming `obj` (its Armature modifier, or an armature
+    parent; or `armature`): the vertices weighted at least `threshold` (default rig.DEFAULT_CORE_WEIGHT) to
+    a bone follow it, in a vertex group ARAP_Core_<bone>; the vertices no deform bone weights become the
+    fixed group ARAP_Unweighted. Bone handles of that armature made before are replaced. While ARAP shows a
+    pose, the Armature modifier is turned off (and back on at rest). Returns rig.RigHandles (.bones,
+    .skipped, .summary())."""
+    _registered()
+    constraints.check_object(obj)
+    return rig.handles_from_armature(obj, rig.DEFAULT_CORE_WEIGHT if threshold is None else threshold, armature)
 
 
 def remove_handle(obj, index):

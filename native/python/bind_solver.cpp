@@ -77,6 +77,11 @@ void set_positions(arap::Solver& s, const py::array& p) {
   idle(s).set_positions(v.map());
 }
 
+void start_from(arap::Solver& s, const py::array& p) {
+  PointsView v = view_points(p, "positions");
+  idle(s).start_from(v.map());
+}
+
 double energy(const arap::Solver& s, const py::array& p) {
   PointsView v = view_points(p, "positions");
   idle(s);
@@ -114,6 +119,9 @@ py::class_<arap::Solver> bind_solver(py::module_& m) {
           "forget_solution", [](arap::Solver& s) { idle(s).forget_solution(); },
           "The next solve starts cold, as the first after bind(): its result depends on its targets alone.")
       .def("set_positions", &set_positions, py::arg("positions"))
+      .def("start_from", &start_from, py::arg("positions"),
+           "forget_solution(), and the next solve starts from these positions (#V by 3; the constrained\n"
+           "vertices at their targets): a cold start from a given shape (a rig's skinned pose).")
       .def("energy", &energy, py::arg("positions"))
       .def("energy_gradient", &energy_gradient, py::arg("positions"), "dE/dp for every vertex, #V by 3 float64.")
       .def("mesh_report", &arap::Solver::mesh_report, py::return_value_policy::copy)

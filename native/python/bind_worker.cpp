@@ -18,9 +18,15 @@ void bind_worker_result(py::module_& m) {
                     "converged or out of iterations: the worker sleeps until new targets come");
 }
 
-void post(arap::SolveWorker& w, const py::array& targets, bool restart) {
+void post(arap::SolveWorker& w, const py::array& targets, bool restart, const py::object& start) {
   PointsView t = view_points(targets, "targets");
-  w.post(t.map(), restart);
+  if (start.is_none()) {
+    w.post(t.map(), restart);
+    return;
+  }
+  if (!restart) throw py::value_error("post(): start= is a cold start, give restart=True with it");
+  PointsView s = view_points(start.cast<py::array>(), "start");
+  w.post_from(t.map(), s.map());
 }
 
 py::object take(arap::SolveWorker& w, py::array out) {
@@ -64,9 +70,10 @@ void bind_worker(py::module_& m) {
            py::arg("solver"), py::arg("max_iterations"), py::keep_alive<1, 2>(),
            "solver: bound, its options set (time_budget_ms and max_iterations make each solve a chunk);\n"
            "max_iterations: the most iterations spent on one set of targets, all solves together.")
-      .def("post", &post, py::arg("targets"), py::arg("restart") = false,
+      .def("post", &post, py::arg("targets"), py::arg("restart") = false, py::arg("start") = py::none(),
            "New targets (#constrained by 3); returns at once. restart: solve them from a cold start "
-           "(the result then depends on the targets alone).")
+           "(the result then depends on the targets alone); with start (#V by 3), a cold start from that "
+           "shape (Solver.start_from).")
       .def("take", &take, py::arg("out"),
            "The newest finished solve, written into `out`, as a WorkerResult; None when none finished since\n"
            "the last take(). A solve that failed raises its error here.")

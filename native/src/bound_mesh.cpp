@@ -296,6 +296,28 @@ void to_internal(const BoundMesh& m, const Eigen::Ref<const Points>& input, Poin
     if (m.order[k] < m.input_n) internal.row(k) = input.row(m.order[k]);
 }
 
+// Volume::Infill's lattice nodes (internal rows of input index >= input_n) moved with the surface given in
+// `P`: each node's displacement from rest becomes the |w|-weighted mean of its neighbours' (Gauss-Seidel
+// sweeps of the graph Laplacian, the mesh's vertices held), so a start from a posed surface does not pull
+// against a lattice left at rest.
+void lattice_follows_surface(const BoundMesh& m, Points& P) {
+  if (m.n == m.input_n) return;
+  constexpr int kSweeps = 60;
+  for (int sweep = 0; sweep < kSweeps; ++sweep)
+    for (int i = 0; i < m.n; ++i) {
+      if (m.order[i] < m.input_n) continue;
+      Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
+      double total = 0;
+      for (int k = m.spoke_begin[i]; k < m.spoke_begin[i + 1]; ++k) {
+        const int j = m.neighbor[k];
+        const double w = std::abs(m.spokes[k].w);
+        sum += w * (P.row(j) - m.rest.row(j));
+        total += w;
+      }
+      if (total > 0) P.row(i) = m.rest.row(i) + sum / total;
+    }
+}
+
 void to_input(const BoundMesh& m, const Points& internal, Points& input) {
   input.resize(m.input_n, 3);
   for (int k = 0; k < m.n; ++k)

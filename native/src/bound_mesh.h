@@ -82,5 +82,8 @@ std::vector<int> lattice_rows_to_order_last(const BoundMesh& m);
 // it has not #n rows); to_input writes the mesh's vertices only.
 void to_internal(const BoundMesh& m, const Eigen::Ref<const Points>& input, Points& internal);
 void to_input(const BoundMesh& m, const Points& internal, Points& input);
+// Volume::Infill's lattice nodes of `internal` moved with its mesh vertices (their displacement from rest
+// smoothed into the lattice), for a start from a given surface (Solver::start_from).
+void lattice_follows_surface(const BoundMesh& m, Points& internal);
 
 }  // namespace arap

@@ -29,7 +29,18 @@ SolveWorker::SolveWorker(Solver& solver, int max_iterations) : solver_(solver), 
 
 SolveWorker::~SolveWorker() { stop(); }
 
-void SolveWorker::post(const Eigen::Ref<const Points>& targets, bool restart) {
+void SolveWorker::post_from(const Eigen::Ref<const Points>& targets, const Eigen::Ref<const Points>& start) {
+  if (start.rows() != solver_.vertex_count())
+    throw Error(ErrorCode::InvalidInput, "expected " + std::to_string(solver_.vertex_count()) +
+                                             " start positions, got " + std::to_string(start.rows()));
+  if (!start.allFinite()) throw Error(ErrorCode::NonFinite, "a start position is not finite");
+  post(targets, true, &start);
+}
+
+void SolveWorker::post(const Eigen::Ref<const Points>& targets, bool restart) { post(targets, restart, nullptr); }
+
+void SolveWorker::post(const Eigen::Ref<const Points>& targets, bool restart,
+                       const Eigen::Ref<const Points>* start) {
   const int expected_rows = static_cast<int>(solver_.constrained().size());
   if (targets.rows() != expected_rows)
     throw Error(ErrorCode::InvalidInput, "expected " + std::to_string(expected_rows) +
@@ -41,6 +52,8 @@ void SolveWorker::post(const Eigen::Ref<const Points>& targets, bool restart) {
   pending_ = targets;
   fresh_ = true;
   restart_ = restart;
+  from_start_ = start != nullptr;
+  if (from_start_) start_ = *start;
   solver_.set_stop_requested(true);  // the solve in progress (old targets) ends after this iteration
   wake_.notify_one();
 }
@@ -117,7 +130,10 @@ void SolveWorker::run() {
     if (fresh_) {
       targets_ = pending_;
       fresh_ = false;
-      if (restart_) solver_.forget_solution();  // the solver is idle: this thread owns it
+      if (restart_ && from_start_)
+        solver_.start_from(start_);  // the solver is idle: this thread owns it
+      else if (restart_)
+        solver_.forget_solution();
       spent_ = 0;
     }
     working_ = true;

@@ -122,7 +122,12 @@ InitialGuess Solver::Impl::prepare_first_guess(const Eigen::Ref<const Points>& g
   if (quasi_newton && reuse_rotations && !resume && !contact.on() && !warm_start_by_global_step())
     carry_constrained_to(targets, true);
   apply_targets(targets, state);
-  first_guess(guess);
+  if (start_given && guess != InitialGuess::WarmStart) {
+    for (int v : mesh.free_vertices) state.row(v) = given_start.row(v);
+    start_given = false;  // once: later solves go on from their own solution
+  } else {
+    first_guess(guess);
+  }
   return guess;
 }
 
@@ -195,13 +200,23 @@ void Solver::Impl::keep_solution(const Eigen::Ref<const Points>& given, SolveSta
 
 const Points& Solver::positions() const { return impl_->positions; }
 
+namespace {
+
+// Throws unless the solver is `bound` and `positions` are finite, one row per input vertex (`input_n`);
+// `call` names the caller.
+void check_positions(bool bound, int input_n, const Eigen::Ref<const Points>& positions, const char* call) {
+  if (!bound) throw Error(ErrorCode::NotBound, std::string(call) + " called before bind()");
+  if (positions.rows() != input_n)
+    throw Error(ErrorCode::InvalidInput,
+                "expected " + std::to_string(input_n) + " positions, got " + std::to_string(positions.rows()));
+  if (!positions.allFinite()) throw Error(ErrorCode::NonFinite, "positions contain NaN or Inf");
+}
+
+}  // namespace
+
 void Solver::set_positions(const Eigen::Ref<const Points>& positions) {
   Impl& s = *impl_;
-  if (!s.bound) throw Error(ErrorCode::NotBound, "set_positions() called before bind()");
-  if (positions.rows() != s.mesh.input_n)
-    throw Error(ErrorCode::InvalidInput,
-                "expected " + std::to_string(s.mesh.input_n) + " positions, got " + std::to_string(positions.rows()));
-  if (!positions.allFinite()) throw Error(ErrorCode::NonFinite, "positions contain NaN or Inf");
+  check_positions(s.bound, s.mesh.input_n, positions, "set_positions()");
   s.positions = positions;
   to_internal(s.mesh, positions / s.unit, s.state);
   s.has_solution = true;
@@ -215,6 +230,17 @@ void Solver::forget_solution() {
   s.has_solution = false;
   s.rotations_valid = false;
   s.qn_resumable = false;
+  s.start_given = false;
+}
+
+void Solver::start_from(const Eigen::Ref<const Points>& positions) {
+  Impl& s = *impl_;
+  check_positions(s.bound, s.mesh.input_n, positions, "start_from()");
+  forget_solution();
+  s.given_start = s.mesh.rest;
+  to_internal(s.mesh, positions / s.unit, s.given_start);
+  lattice_follows_surface(s.mesh, s.given_start);
+  s.start_given = true;
 }
 
 void Solver::set_stop_requested(bool stop) { shared_->stop.store(stop); }

@@ -43,6 +43,8 @@ struct Solver::Impl final : contact::SolverHooks {
   double last_energy = 0.0;      // energy of the last solution (internal units)
 
   Points state;      // the current solution in internal vertex order and units (see bound_mesh.h)
+  Points given_start;        // start_from()'s shape (internal order and units) ...
+  bool start_given = false;  // ... which the next cold solve starts from
   Points targets;    // the last targets in internal units
   Points positions;  // the same in input order, as returned by positions()
   Points state_backup;

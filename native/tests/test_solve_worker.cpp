@@ -132,6 +132,28 @@ TEST(SolveWorker, ARestartedSolveInChunksGivesTheBitsOfOneColdSolve) {
   EXPECT_NE(positions, once.positions());
 }
 
+TEST(SolveWorker, APostFromAStartGivesTheBitsOfTheSolverStartingThere) {
+  const BentTube t, far(2.6), near(1.3);
+  arap::Solver once, chunked, guess;
+  arap::Options o = quasi_newton(300, 1e-8, arap::InitialGuess::WarmStart);
+  guess.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+  guess.solve(near.targets);
+  once.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+  once.start_from(guess.positions());
+  once.solve(near.targets);
+  o.max_iterations = 3;
+  chunked.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+  arap::SolveWorker worker(chunked, 300);
+  arap::SolveWorker::Result result;
+  arap::Points positions;
+  worker.post(far.targets);
+  take_until_settled(worker, result, positions);
+  worker.post_from(near.targets, guess.positions());
+  take_until_settled(worker, result, positions);
+  EXPECT_EQ(positions, once.positions());
+  EXPECT_THROW(worker.post_from(near.targets, guess.positions().topRows(2)), arap::Error);
+}
+
 TEST(SolveWorker, StopsAtItsIterationCapWhenThePoseDoesNotSettle) {
   const BentTube t;
   arap::Solver solver;

@@ -205,6 +205,38 @@ TEST(Solver, AfterForgetSolutionASolveGivesTheBitsOfAFreshBind) {
       }
 }
 
+TEST(Solver, AStartFromAGivenShapeDependsOnThatShapeAlone) {
+  // A rig's frame starts from its skinned pose: the pose must not depend on the frames solved before it,
+  // and a start already at the pose settles at once.
+  const BentTube t, far(2.6), near(1.3);
+  for (auto volume : {arap::Volume::None, arap::Volume::Infill}) {
+    arap::Options o = options_with(arap::InitialGuess::WarmStart, 200, 1e-9, arap::Method::QuasiNewton);
+    o.cold_start = arap::InitialGuess::Naive;
+    o.volume = volume;
+    arap::Solver fresh, used, naive;
+    fresh.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+    used.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+    naive.bind(t.mesh.V, t.mesh.F, t.constrained, o);
+    const auto settled = naive.solve(near.targets);
+    const arap::Points start = naive.positions();
+    fresh.start_from(start);
+    const auto direct = fresh.solve(near.targets);
+    used.solve(far.targets);
+    used.start_from(start);
+    used.solve(near.targets);
+    const std::string what = arap::to_string(volume);
+    EXPECT_EQ(used.positions(), fresh.positions()) << what;
+    // The surface's own energy has nothing left to settle. (Infill's lattice starts near the surface's move,
+    // not at its own settled place: it still takes iterations.)
+    if (volume == arap::Volume::None) EXPECT_LE(direct.iterations, 2) << what;
+    EXPECT_LE(direct.energy.back(), settled.energy.back() * (1 + 1e-6)) << what;
+    // Once: the next solve goes on from its own solution (a warm start), not from `start` again.
+    used.solve(far.targets);
+    EXPECT_NE(used.positions(), fresh.positions()) << what;
+    EXPECT_THROW(used.start_from(start.topRows(3)), arap::Error);
+  }
+}
+
 TEST(LocalGlobal, AWarmSolveWithTheSameTargetsContinuesTheIteration) {
   // The time-to-band benchmark resumes runs this way: 12 plain iterations, or 5 and then 7 warm, alike.
   const BentTube t;

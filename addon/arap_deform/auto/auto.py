@@ -43,7 +43,7 @@ from bpy.app.handlers import persistent
 
 from .. import errors
 from ..persistence import properties
-from ..solver import bake, meshio, problem, sessions
+from ..solver import bake, meshio, problem, rig, sessions
 from ..ui import panels, status_overlay
 from ..solver.background_bind import BackgroundBind
 from .final_poses import FinalPoses
@@ -181,7 +181,7 @@ class AutoPoser:
 
     def _solve_here(self, key, pose):
         global solve_count
-        self.solver.forget_solution()   # the pose of these handles, whatever was solved before
+        self.problem.cold_start(self.solver, pose.transforms)   # the pose of these handles, whatever came before
         targets = self.problem.targets(pose)
         self.solver.time_budget_ms = 0.0
         self.solver.max_iterations = self.max_iterations
@@ -235,7 +235,7 @@ class AutoPoser:
         if not self.final:
             self._write(self.buffer, None)
             if settled:
-                self.worker.post(self.targets, restart=True)
+                self.worker.post(self.targets, restart=True, start=self.problem.start_shape(self.current))
                 self.final = True
             self._settled(False)
             return False
@@ -369,19 +369,21 @@ class AutoPoser:
             self.cache_bytes -= old[0].nbytes
 
     def _write(self, positions, key):
+        rig.mute_armature(self.obj)   # the pose shown is ARAP's: the rig's own deformation not on top
         self.output.write(positions)
         self.written = key
 
 
 def setup_key(obj):
     """What a bind reads from the object's set-up besides the mesh: the groups by name and whether each is
-    there (with its index), the handles' Empties, the weights and the result. A change binds again, so a
+    there (with its index), the handles' Empties and bones, the weights and the result. A change binds again, so a
     set-up Deform would refuse (a removed or renamed group) stops Auto mode with Deform's message."""
     s = obj.arap
     names = [s.fixed_group, s.stiff_group] + [h.group for h in s.handles]
     groups = obj.vertex_groups
     present = tuple(groups[n].index if n in groups else -1 for n in names)
-    empties = tuple(h.empty.as_pointer() if h.empty is not None else 0 for h in s.handles)
+    empties = tuple((h.empty.as_pointer() if h.empty is not None else 0,
+                     h.armature.as_pointer() if h.armature is not None else 0, h.bone) for h in s.handles)
     return (tuple(names), present, empties, s.stiffness, s.weights, s.output)
 
 
@@ -583,8 +585,10 @@ def stop(obj, reason=None, keep_pose=False):
             pass   # a linked duplicate's Auto or Live poses this mesh: its pose and rest shape are that one's
         elif obj.mode == 'EDIT':
             _restore_in_edit_mode(obj, poser)
+            rig.restore_armature(obj)
         else:
             restore_rest(obj)
+            rig.restore_armature(obj)
         s.auto_status = reason or ""
     finally:
         _busy = was_busy

@@ -29,6 +29,7 @@ class FinalPoses:
 
     def __init__(self, problem, settings, max_iterations):
         self._binding = BackgroundBind(problem, settings, warm=True, nice=10)
+        self._problem = problem   # the start shape of each frame (a rig's skinned pose)
         self._max_iterations = max_iterations
         self._worker = None
         self._queue = collections.OrderedDict()   # pose key -> (targets, handle transforms)
@@ -69,7 +70,7 @@ class FinalPoses:
         if self._job is None and self._queue:
             key, (targets, transforms) = self._queue.popitem(last=False)
             self._job = (key, targets, transforms)
-            self._worker.post(targets, restart=True)
+            self._worker.post(targets, restart=True, start=self._problem.start_shape(transforms))
         return finished
 
     def _bound(self):

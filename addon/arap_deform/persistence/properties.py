@@ -5,6 +5,8 @@ Bind pose of a handle's empty: `bind_matrix` holds the empty's world matrix
 (row-major, 16 floats) captured when the handle is created (operator or
 api.add_handle) and captured again by "Reset to Rest" and "Set Rest Pose".
 A handle's vertices then follow M_empty_now @ inverse(bind_matrix).
+A handle on a bone (`bone` set) keeps the bone's matrix in armature space
+instead (solver/drivers.py).
 """
 
 import bpy
@@ -32,8 +34,12 @@ def _poll_empty(_self, obj):
     return obj.type == 'EMPTY'
 
 
+def _poll_armature(_self, obj):
+    return obj.type == 'ARMATURE'
+
+
 class ARAP_PG_handle(PropertyGroup):
-    """A vertex group whose vertices follow an empty."""
+    """A vertex group whose vertices follow an empty, or a bone when `bone` is set."""
 
     group: StringProperty(
         name="Vertex Group",
@@ -46,9 +52,21 @@ class ARAP_PG_handle(PropertyGroup):
         type=bpy.types.Object,
         poll=_poll_empty,
     )
+    armature: PointerProperty(
+        name="Armature",
+        description="Armature object whose bone moves the group's vertices (with Bone set)",
+        type=bpy.types.Object,
+        poll=_poll_armature,
+    )
+    bone: StringProperty(
+        name="Bone",
+        description="Bone whose pose since the bind pose moves the group's vertices, as the Armature modifier "
+                    "moves a vertex weighted fully to it (empty: the handle follows its Empty)",
+        default="",
+    )
     bind_matrix: FloatVectorProperty(
         name="Bind Matrix",
-        description="World matrix of the empty at bind time (row-major)",
+        description="World matrix of the empty at bind time, or the bone's matrix in armature space (row-major)",
         size=16,
         default=IDENTITY16,
         options={'HIDDEN'},
@@ -101,6 +119,13 @@ class ARAP_PG_settings(PropertyGroup):
     )
     handles: CollectionProperty(type=ARAP_PG_handle, name="Handles")
     active_handle: IntProperty(name="Active Handle", default=0, min=0)
+    armature_muted: StringProperty(
+        name="Armature Muted",
+        description="What ARAP turned off of the rig's own deformation while it shows a pose (solver/rig.py), "
+                    "to put back exactly",
+        default="",
+        options={'HIDDEN'},
+    )
     method: option_enum(
         "method", METHOD_ITEMS, METHOD_NAMES,
         name="Method", description="How the energy is minimised (all reach the same minimum)",

@@ -44,7 +44,7 @@ import time
 import bpy
 import numpy as np
 
-from . import anim_compat, constraints, deform_job, meshio, problem, sessions
+from . import anim_compat, constraints, deform_job, meshio, problem, rig, sessions
 from ..persistence import temp_files
 from ..persistence.older_settings import max_iterations_argument
 from ..errors import SetupError
@@ -180,7 +180,9 @@ class Baker:
         Empty follows the baked mesh by then: the bake refuses such a set-up at the start too)."""
         self.problem.check_loops(self.obj)
         depsgraph = bpy.context.evaluated_depsgraph_get()
-        return self.problem.targets(self.problem.pose(self.obj, self.scene, depsgraph))
+        pose = self.problem.pose(self.obj, self.scene, depsgraph)
+        self._start = self.problem.start_shape(pose.transforms)   # the cold solve's start (a rig's skin)
+        return self.problem.targets(pose)
 
     def _gradient(self, positions):
         g = self.solver.energy_gradient(np.ascontiguousarray(positions, np.float64))
@@ -195,7 +197,11 @@ class Baker:
             guess[self.setup.constrained] = targets
             self.result.gradient_reference = self._gradient(guess)
         out = self._out()
-        self.solver.forget_solution()   # each frame from the cold start: the pose Auto mode and renders show
+        # Each frame from the cold start: the pose Auto mode and renders show.
+        if self._start is None:
+            self.solver.forget_solution()
+        else:
+            self.solver.start_from(self._start)
         self._record(out, self.solver.solve(targets, out=out))
         return f
 
@@ -203,7 +209,8 @@ class Baker:
         """Go to the next frame and hand its solve to `worker` (a SolveWorker of self.solver whose
         max_iterations is the solver's: one solve, the same arithmetic as step()); returns the frame."""
         f = self._begin_frame()
-        worker.post(self._targets(), restart=True)
+        targets = self._targets()
+        worker.post(targets, restart=True, start=self._start)
         return f
 
     def take_frame(self, worker):
@@ -274,6 +281,7 @@ class Baker:
         t0 = time.perf_counter()
         clear_bake(self.obj)
         write()
+        rig.mute_armature(self.obj)   # the baked frames are the rig's poses already: not deformed again
         self.restore_frame()
         r = self.result
         r.write_ms = (time.perf_counter() - t0) * 1e3
@@ -342,7 +350,8 @@ def bake_pc2(obj, path, start, end, scene=None, max_iterations=None, tolerance=N
 
 def clear_bake(obj):
     """Remove the baked shape keys, their keyframes and the bake's Mesh Cache
-    modifier, and undo what the bake changed (muted "ARAP" key, created Basis).
+    modifier, and undo what the bake changed (muted "ARAP" key, created Basis,
+    the rig's Armature modifier turned off).
     The .pc2 file is left on disk. Returns the number of things removed."""
     removed = 0
     mesh = obj.data
@@ -372,6 +381,8 @@ def clear_bake(obj):
     if mod is not None and mod.type == 'MESH_CACHE':
         obj.modifiers.remove(mod)
         removed += 1
+    if not obj.arap.auto and sessions.session_for(obj) is None:
+        rig.restore_armature(obj)   # the rig deforms the mesh again (unless ARAP poses it now)
     mesh.update()
     return removed
 

@@ -10,32 +10,37 @@ follow which handle is decided by the core library's rule (gather()).
 import bpy
 import numpy as np
 
-from . import handles, meshio, sessions
+from . import drivers, handles, meshio, sessions
 from .. import native_loader
 from ..errors import SetupError  # noqa: F401 - raised here, imported from here by callers
 
 
-def empty_is_alive(empty, scene):
-    """False for a deleted empty (pointer cleared, or removed from the scene)."""
-    if empty is None:
-        return False
-    try:
-        name = empty.name
-    except ReferenceError:
-        return False
-    return scene is None or scene.objects.get(name) == empty
-
-
 class HandleBlock:
-    """Rows [start, stop) of the constrained list follow `empty`."""
+    """Rows [start, stop) of the constrained list follow the Empty or the bone of saved handle `handle`
+    (drivers.py)."""
 
-    def __init__(self, index, group, empty, start, stop, bind):
+    def __init__(self, index, handle, start, stop):
         self.index = index      # position in settings.handles
-        self.group = group
-        self.empty = empty
+        self.group = handle.group
+        self.empty = handle.empty if not drivers.is_bone(handle) else None
+        self.armature = handle.armature if drivers.is_bone(handle) else None
+        self.bone = handle.bone
         self.start = start
         self.stop = stop
-        self.bind_inv = handles.bind_inverse(bind, group, empty.name)
+        bind = handles.bind_matrix(handle, drivers.bind_matrix_now)
+        self.bind_inv, self.bone_bind_inv = drivers.bind_inverses(handle, bind, handle.group)
+
+    @property
+    def driver(self):
+        """The Empty or the armature that moves this handle."""
+        return drivers.driver(self)
+
+    def set_driver(self, obj):
+        """Follow `obj` (the same Empty or armature found again by name after an undo)."""
+        if self.bone:
+            self.armature = obj
+        else:
+            self.empty = obj
 
 
 class Setup:
@@ -114,10 +119,7 @@ def gather(obj, scene=None, members=None):
         label = h.group or "#%d" % (i + 1)
         if not h.group:
             raise SetupError("Handle %s has no vertex group" % label)
-        if h.empty is None:
-            raise SetupError("Handle '%s' has no empty (never set, or deleted): pick one in the handle list" % label)
-        if not empty_is_alive(h.empty, scene):
-            raise SetupError("The empty of handle '%s' was deleted: pick another one" % label)
+        drivers.check(h, scene, label)
 
     # Every group named here has vertices (checked above), so something is always held.
     chosen = native_loader.native().constraint_set(
@@ -125,8 +127,7 @@ def gather(obj, scene=None, members=None):
         "the fixed group '%s'" % s.fixed_group, [("handle '%s'" % h.group, members[h.group]) for h in s.handles])
     blocks = []
     for index, start, stop in chosen.handles:
-        h = s.handles[index]
-        blocks.append(HandleBlock(index, h.group, h.empty, start, stop, handles.bind_matrix(h)))
+        blocks.append(HandleBlock(index, s.handles[index], start, stop))
     return Setup(chosen.constrained, chosen.fixed_count, blocks, list(chosen.warnings))
 
 
@@ -179,8 +180,8 @@ def check_reach(setup, rest_constrained, targets, size):
         far = np.abs(targets[h.start:h.stop] - rest_constrained[h.start:h.stop]).max(initial=0.0)
         if far > limit:
             raise SetupError("Handle '%s' would move its vertices %.3g away, more than %d times the mesh's size "
-                             "(%.3g): its Empty '%s' is moved or scaled too far for the pose to be kept. Move or "
-                             "scale it back" % (h.group, far, MAX_REACH, size, h.empty.name))
+                             "(%.3g): its %s is moved or scaled too far for the pose to be kept. Move or "
+                             "scale it back" % (h.group, far, MAX_REACH, size, drivers.describe(h)))
 
 
 def fill_targets(setup, rest_constrained, transforms, out):

@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from . import constraints, handles, meshio, solver_cache
+from . import constraints, drivers, handles, meshio, rig, solver_cache
 from ..errors import SetupError
 from ..native_loader import native
 from .background_bind import BackgroundBind
@@ -88,6 +88,9 @@ class DeformJob:
 
     def run(self):
         """Solve here and write; the DeformResult."""
+        start = self.problem.start_shape(self.pose.transforms)   # a rig's skinned pose, else the Start setting
+        if start is not None:
+            self.solver.start_from(start)
         return self._finish(self.solver.solve(self.targets, out=self.positions))
 
     def _bound(self, solver):
@@ -107,7 +110,8 @@ class DeformJob:
 
     def _start_worker(self):
         self.worker = native().SolveWorker(self.solver, max_iterations=self.max_iterations)
-        self.worker.post(self.targets)
+        start = self.problem.start_shape(self.pose.transforms)
+        self.worker.post(self.targets, restart=start is not None, start=start)
         self.solving_since = time.monotonic()
 
     def time_left(self):
@@ -176,6 +180,7 @@ class DeformJob:
         obj, problem = self.obj, self.problem
         if problem.output == 'MESH' and not meshio.has_rest_attribute(obj.data):
             meshio.store_rest(obj.data, problem.rest32)
+        rig.mute_armature(obj)   # the pose shown is ARAP's: the rig's own deformation not on top
         out = meshio.Output(obj, problem.output)
         out.ensure()
         out.write(self.positions)
@@ -216,7 +221,8 @@ def last_result(obj):
 
 
 def reset(obj):
-    """Put the rest shape back and capture every handle's bind pose again."""
+    """Put the rest shape back (the rig's deformation too, rig.restore_armature) and capture every handle's
+    bind pose again: an Empty's where it is now, a bone's at its rest pose."""
     constraints.check_object(obj)
     mesh = obj.data
     keys = mesh.shape_keys
@@ -226,7 +232,8 @@ def reset(obj):
         meshio.Output(obj, 'SHAPE_KEY').write(rest)
     if meshio.has_rest_attribute(mesh):
         meshio.Output(obj, 'MESH').write(meshio.rest_coords(obj, 'MESH'))
-    capture_all_binds(obj)
+    rig.restore_armature(obj)
+    capture_all_binds(obj, bones_at_rest=True)
 
 
 def set_rest_pose(obj):
@@ -237,18 +244,28 @@ def set_rest_pose(obj):
     capture_all_binds(obj)
 
 
-def capture_bind(handle):
-    """Take the handle Empty's world matrix now as its bind pose (matrices
-    brought up to date first: a script may just have moved the Empty)."""
+def capture_bind(handle, at_rest=False):
+    """Take the handle Empty's world matrix (or its bone's pose; with `at_rest`, the bone's rest pose) now as
+    its bind pose (matrices brought up to date first: a script may just have moved the Empty)."""
     sync_matrices()
-    handles.capture_bind(handle)
+    if at_rest and drivers.is_bone(handle):
+        handles.capture_bind(handle, drivers.bone_rest_matrix(handle.armature, handle.bone))
+    else:
+        handles.capture_bind(handle, drivers.bind_matrix_now(handle))
 
 
-def capture_all_binds(obj):
+def capture_all_binds(obj, bones_at_rest=False):
+    """Each handle's bind pose taken now (a bone's at its rest pose with `bones_at_rest`)."""
     sync_matrices()
-    for h in obj.arap.handles:
-        if h.empty is not None:
-            handles.capture_bind(h)
+    for i, h in enumerate(obj.arap.handles):
+        try:
+            drivers.check(h, None, h.group or "#%d" % (i + 1))
+        except SetupError:
+            continue    # nothing to take a pose from: gather() says so at the next bind
+        if bones_at_rest and drivers.is_bone(h):
+            handles.capture_bind(h, drivers.bone_rest_matrix(h.armature, h.bone))
+        else:
+            handles.capture_bind(h, drivers.bind_matrix_now(h))
 
 
 def clear_cache():

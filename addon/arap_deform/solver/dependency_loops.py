@@ -35,6 +35,7 @@ on every update, before anything is solved.
 
 import bpy
 
+from . import drivers
 from ..errors import SetupError
 
 VERTEX_PARENTS = {'VERTEX', 'VERTEX_3'}
@@ -51,8 +52,9 @@ class Loop:
     """A handle whose Empty follows the posed object: `links` are (owner name, how, target name) from the Empty
     to the posed object."""
 
-    def __init__(self, obj_name, group, empty_name, links):
+    def __init__(self, obj_name, group, empty_name, links, what=None):
         self.obj_name, self.group, self.empty_name, self.links = obj_name, group, empty_name, links
+        self.what = what or "Empty '%s'" % empty_name    # drivers.describe(): an Empty or a bone
 
     @property
     def how(self):
@@ -65,9 +67,9 @@ class Loop:
         return " -> ".join(parts)
 
     def message(self):
-        return ("Dependency loop: the Empty '%s' of handle '%s' follows '%s', the mesh it poses (%s), so every "
-                "pose would move its own handle: parent or constrain the Empty to something that does not "
-                "follow '%s'" % (self.empty_name, self.group, self.obj_name, self.how, self.obj_name))
+        return ("Dependency loop: the %s of handle '%s' follows '%s', the mesh it poses (%s), so every "
+                "pose would move its own handle: parent or constrain it to something that does not "
+                "follow '%s'" % (self.what, self.group, self.obj_name, self.how, self.obj_name))
 
 
 def _same(a, b):
@@ -131,10 +133,11 @@ def _reads(id_read, obj):
     return _same(id_read, obj) or _same(id_read, mesh) or _same(id_read, mesh.shape_keys)
 
 
-def _path_to(empty, obj):
-    """The links from `empty` to `obj` [(owner name, how, target name)], or None."""
+def _path_to(empty, obj, bone=None):
+    """The links from `empty` (or bone `bone` of armature `empty`) to `obj` [(owner name, how, target name)],
+    or None."""
     seen = set()
-    stack = [(empty, None, [])]
+    stack = [(empty, bone, [])]
     while stack:
         ob, bone, path = stack.pop()
         key = (ob.as_pointer(), bone)
@@ -151,21 +154,22 @@ def _path_to(empty, obj):
 
 
 def find(obj, handles):
-    """The first Loop among `handles` (objects with .group and .empty: the settings' handles, or a Setup's)
-    of the posed object `obj`, or None. Handles without an Empty, or with a deleted one, are skipped."""
+    """The first Loop among `handles` (the settings' handles, or a Setup's: drivers.py) of the posed object
+    `obj`, or None. Handles without an Empty (or armature), or with a deleted one, are skipped."""
     for h in handles:
-        empty = h.empty
+        empty = drivers.driver(h)
         if empty is None:
             continue
         try:
             empty.name
         except ReferenceError:
             continue
+        what = drivers.describe(h)
         if _same(empty, obj):
-            return Loop(obj.name, h.group, empty.name, [(empty.name, "the posed object itself", obj.name)])
-        path = _path_to(empty, obj)
+            return Loop(obj.name, h.group, empty.name, [(empty.name, "the posed object itself", obj.name)], what)
+        path = _path_to(empty, obj, h.bone or None)
         if path is not None:
-            return Loop(obj.name, h.group, empty.name, path)
+            return Loop(obj.name, h.group, empty.name, path, what)
     return None
 
 

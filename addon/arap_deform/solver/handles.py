@@ -17,17 +17,18 @@ def matrix_to_numpy(m):
     return np.array([tuple(row) for row in m], np.float64)
 
 
-def capture_bind(handle):
-    """Store the Empty's current world matrix as the handle's bind pose."""
-    handle.bind_matrix = matrix_to_numpy(handle.empty.matrix_world).ravel().tolist()
+def capture_bind(handle, matrix):
+    """Store `matrix` (drivers.bind_matrix_now(), or a bone's rest matrix) as the handle's bind pose."""
+    handle.bind_matrix = np.asarray(matrix, np.float64).ravel().tolist()
     handle.has_bind = True
 
 
-def bind_matrix(handle):
-    """The handle's bind pose M_empty_bind: the one stored, or its Empty's world matrix now when none was taken."""
+def bind_matrix(handle, now):
+    """The handle's bind pose: the one stored, or `now` (a callable giving the matrix a bind would take now)
+    when none was taken."""
     if handle.has_bind:
         return np.asarray(handle.bind_matrix, np.float64).reshape(4, 4)
-    return matrix_to_numpy(handle.empty.matrix_world)
+    return now(handle)
 
 
 def invert(matrix, what):

@@ -14,7 +14,7 @@ import time
 import bpy
 import numpy as np
 
-from . import constraints, meshio, sessions
+from . import constraints, meshio, rig, sessions
 from .dependency_loops import DependencyLoop
 from ..errors import SessionError, SetupError
 from ..native_loader import native
@@ -81,8 +81,8 @@ class LiveSession:
         self._next_topology_check = time.monotonic() + TOPOLOGY_CHECK_S
         self.snapshot = meshio.Snapshot(obj)
         # Cancel means the state before Live: the Empties too.
-        self.empties = meshio.TransformSnapshot(self._empties())
-        self.names = (obj.name, [h.empty.name for h in self.problem.setup.handles])
+        self.empties = meshio.TransformSnapshot(self._drivers())
+        self.names = (obj.name, [h.driver.name for h in self.problem.setup.handles])
         self.collapsed = []     # handles whose Empty is scaled to almost nothing (the operator warns)
         self.contact = None     # problem.ContactStop: Self Contact stopped the last settled pose short
         self.contact_held = None   # what Self Contact did in the last solve shown (problem.contact_held)
@@ -187,7 +187,7 @@ class LiveSession:
         stats = self.solver.solve(targets, out=self.buffer)
         t2 = time.perf_counter()
         if self.write_enabled:
-            self.output.write(self.buffer)
+            self._show()
         t3 = time.perf_counter()
         self.converged = stats.converged
         self.contact_held = contact_held(self.problem, stats)
@@ -217,7 +217,7 @@ class LiveSession:
         if result is None:
             return None
         if self.write_enabled:
-            self.output.write(self.buffer)
+            self._show()
         t2 = time.perf_counter()
         stats = result.stats
         self.converged = result.settled and self.worker.settled
@@ -234,11 +234,12 @@ class LiveSession:
             self.contact = pose_contact_stop(self.problem, self.buffer, self.targets)
 
     def _read_pose(self):
-        """The handles' pose now (problem.HandlePose); SessionError 'EMPTY' when an Empty was deleted, 'LOOP'
-        when one now follows the posed mesh (dependency_loops.py: each pose would move its own handle)."""
+        """The handles' pose now (problem.HandlePose); SessionError 'EMPTY' when an Empty (or a bone or its
+        armature) was deleted, 'LOOP' when one now follows the posed mesh (dependency_loops.py: each pose
+        would move its own handle)."""
         sync_matrices()  # scripts move empties without a depsgraph update; cheap when nothing changed
         try:
-            self.problem.empties(self.scene)
+            self.problem.check_drivers(self.scene)
         except SetupError as exc:
             raise SessionError(str(exc), 'EMPTY') from None
         try:
@@ -265,14 +266,19 @@ class LiveSession:
     def _take_newest(self):
         """Show the newest pose the worker finished (if it finished one not shown yet)."""
         if self.worker is not None and self.worker.take(self.buffer) is not None and self.write_enabled:
-            self.output.write(self.buffer)
+            self._show()
+
+    def _show(self):
+        """Write the pose in hand (the rig's own deformation turned off first: the pose shown is ARAP's)."""
+        rig.mute_armature(self.obj)
+        self.output.write(self.buffer)
 
     def positions(self):
         """The current solution, flat float32 (3n), object-local."""
         return self.buffer
 
-    def _empties(self):
-        return [h.empty for h in self.problem.setup.handles]
+    def _drivers(self):
+        return [h.driver for h in self.problem.setup.handles]
 
     def _object_deleted(self):
         # The name as it was at the start: a deleted object's own can no longer be read.
@@ -291,8 +297,8 @@ class LiveSession:
         reloads them): the session must find them again (reattach)."""
         try:
             self.obj.name
-            for empty in self._empties():
-                empty.name
+            for driver in self._drivers():
+                driver.name
         except ReferenceError:
             return True
         return False
@@ -312,7 +318,7 @@ class LiveSession:
                 # Cancel restores the mesh (the object is there).
                 raise SessionError("Live stopped: the handle Empty '%s' was deleted" % name, 'EMPTY')
         for handle, empty in zip(self.problem.setup.handles, empties):
-            handle.empty = empty
+            handle.set_driver(empty)
         self._pose_key = None    # solve for the restored handles
         self.converged = False
         self.check(full=True)
@@ -338,6 +344,7 @@ class LiveSession:
                                    "restored" % (self.n_vertices, n), 'TOPOLOGY')
             self.snapshot.restore()
             self.empties.restore(bpy.data.objects)
+            rig.restore_armature(self.obj)
             sync_matrices()
 
     def before_save(self):

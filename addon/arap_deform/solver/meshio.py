@@ -216,23 +216,35 @@ class Output:
 
 
 class TransformSnapshot:
-    """The transform channels of objects (the handle Empties), to put them back
-    bit for bit: the values are copied, not a matrix recomposed."""
+    """The transform channels of objects (the handle Empties and armatures, with an armature's bones), to
+    put them back bit for bit: the values are copied, not a matrix recomposed."""
 
     CHANNELS = ("location", "rotation_mode", "rotation_euler", "rotation_quaternion", "rotation_axis_angle",
                 "scale", "delta_location", "delta_rotation_euler", "delta_rotation_quaternion", "delta_scale")
 
+    BONE_CHANNELS = ("location", "rotation_mode", "rotation_euler", "rotation_quaternion", "rotation_axis_angle",
+                     "scale")
+
     def __init__(self, objects):
+        objects = list({ob.name: ob for ob in objects}.values())   # an armature of several bone handles once
         self.names = [ob.name for ob in objects]
         self.values = [{c: _copy_channel(getattr(ob, c)) for c in self.CHANNELS} for ob in objects]
+        # An armature's pose too (bone handles): its bones' channels.
+        self.bones = [{b.name: {c: _copy_channel(getattr(b, c)) for c in self.BONE_CHANNELS}
+                       for b in ob.pose.bones} if ob.type == 'ARMATURE' and ob.pose is not None else {}
+                      for ob in objects]
 
     def restore(self, objects_by_name):
-        """Put the channels back on the objects of that name still there."""
-        for name, values in zip(self.names, self.values):
+        """Put the channels back on the objects of that name still there (and on their bones)."""
+        for name, values, bones in zip(self.names, self.values, self.bones):
             ob = objects_by_name.get(name)
             if ob is not None:
                 for channel, value in values.items():
                     setattr(ob, channel, value)
+                for bone_name, channels in bones.items():
+                    bone = ob.pose.bones.get(bone_name) if ob.pose is not None else None
+                    for channel, value in channels.items() if bone is not None else ():
+                        setattr(bone, channel, value)
 
 
 def _copy_channel(value):

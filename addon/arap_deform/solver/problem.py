@@ -10,7 +10,7 @@ import functools
 import bpy
 import numpy as np
 
-from . import constraints, dependency_loops, handles, meshio
+from . import constraints, dependency_loops, drivers, handles, meshio, skinning
 from ..errors import SetupError
 from ..native_loader import native
 # Blender enum items -> the native module's option values (declared with the items).
@@ -100,6 +100,7 @@ class Problem:
         if len(self.tris) == 0:
             raise SetupError("'%s' has no faces: ARAP needs a surface" % obj.name)
         self.rest_constrained = self.rest64[self.setup.constrained]
+        self.skinned = skinning.SkinnedStart.of(obj, self.setup, self.rest64)   # None without bone handles
         self._targets = np.empty_like(self.rest_constrained)
         self.weights = WEIGHT_NAMES[s.weights]
         self.stiffness = constraints.stiffness_of(obj, stiff_weights)
@@ -133,27 +134,25 @@ class Problem:
         return float(np.ptp(self.rest64, axis=0).max())
 
     def check_loops(self, obj):
-        """DependencyLoop (a SetupError) when a handle's Empty follows `obj`, the mesh it poses
+        """DependencyLoop (a SetupError) when a handle's Empty or bone follows `obj`, the mesh it poses
         (dependency_loops.py): Auto mode and Live check before each solve, everything at the bind."""
         dependency_loops.check(obj, self.setup.handles)
 
-    def empties(self, scene=None):
-        """The handles' Empties; SetupError when one was deleted (or, given `scene`, is not in it)."""
+    def check_drivers(self, scene=None):
+        """SetupError when a handle's Empty or armature was deleted (or, given `scene`, is not in it), or its
+        bone renamed or deleted."""
         for h in self.setup.handles:
-            if not constraints.empty_is_alive(h.empty, scene):
-                raise SetupError("The Empty of handle '%s' was deleted" % h.group)
-        return [h.empty for h in self.setup.handles]
+            drivers.check(h, scene, h.group)
 
     def pose(self, obj, scene=None, depsgraph=None):
         """The HandlePose of `obj` now: the world matrices as the viewport last updated them, or, with
-        `depsgraph`, as evaluated there (keyframes, drivers, constraints and parents of the frame it shows
-        count). Raises SetupError when a handle's Empty was deleted (or, given `scene`, is not in it)."""
-        empties = self.empties(scene)
+        `depsgraph`, as evaluated there (keyframes, drivers, constraints, IK and parents of the frame it shows
+        count). Raises SetupError when a handle's Empty or bone is gone (check_drivers)."""
+        self.check_drivers(scene)
         if depsgraph is not None:
             obj = obj.evaluated_get(depsgraph)
-            empties = [e.evaluated_get(depsgraph) for e in empties]
         obj_matrix = handles.matrix_to_numpy(obj.matrix_world)
-        mats = [handles.matrix_to_numpy(e.matrix_world) for e in empties]
+        mats = [drivers.motion_matrix(h, depsgraph) for h in self.setup.handles]
         return HandlePose(self.setup, obj.name, obj_matrix, mats)
 
     def targets(self, pose):
@@ -164,6 +163,20 @@ class Problem:
         targets = constraints.fill_targets(self.setup, self.rest_constrained, pose.transforms, self._targets)
         constraints.check_reach(self.setup, self.rest_constrained, targets, self.size)
         return targets
+
+    def start_shape(self, transforms):
+        """The shape a cold solve for the handles' `transforms` starts from: the rig's own skinned pose when
+        handles follow bones (skinning.py), else None (the solver's first guess, the Start setting)."""
+        return None if self.skinned is None else self.skinned.positions(transforms)
+
+    def cold_start(self, solver, transforms):
+        """Make `solver`'s next solve a cold one, from start_shape(): its pose then depends on the handles'
+        pose alone."""
+        start = self.start_shape(transforms)
+        if start is None:
+            solver.forget_solution()
+        else:
+            solver.start_from(start)
 
     def collapsed(self, pose):
         """The groups of the handles whose Empty `pose` scales to almost nothing since its bind pose."""

@@ -54,26 +54,32 @@ def any_session():
 
 def target_mesh(context):
     """The mesh the panel and the operators act on: the active mesh object,
-    or, when a handle's Empty is active, the mesh it poses (the one Live is
-    posing first), so that selecting an Empty does not hide the panel."""
+    or, when a handle's Empty (or a bone handle's armature, in Pose Mode say) is
+    active, the mesh it poses (the one Live is posing first), so that selecting
+    an Empty does not hide the panel."""
     obj = context.active_object
     if obj is None:
         return None
     if obj.type == 'MESH':
         return obj
-    if obj.type != 'EMPTY':
+    if obj.type not in ('EMPTY', 'ARMATURE'):
         return None
     session = any_session()
     if session is not None and session.active:
         try:
-            if any(h.empty == obj for h in session.obj.arap.handles):
+            if any(_moved_by(h, obj) for h in session.obj.arap.handles):
                 return session.obj
         except ReferenceError:
             pass
     for ob in context.view_layer.objects:
-        if ob.type == 'MESH' and any(h.empty == obj for h in ob.arap.handles):
+        if ob.type == 'MESH' and any(_moved_by(h, obj) for h in ob.arap.handles):
             return ob
     return None
+
+
+def _moved_by(handle, obj):
+    """`obj` is the handle's Empty, or the armature of its bone."""
+    return (handle.armature if handle.bone else handle.empty) == obj
 
 
 def stop_session(session):

@@ -20,13 +20,22 @@ class ARAP_UL_handles(bpy.types.UIList):
     is edited below the list, each name at full width (as Blender's own vertex group list)."""
 
     def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0):
-        layout.label(text=handle_row_text(item, data.id_data), icon='EMPTY_AXIS' if item.empty else 'ERROR')
+        if item.bone:
+            icon = 'BONE_DATA' if item.armature is not None else 'ERROR'
+        else:
+            icon = 'EMPTY_AXIS' if item.empty else 'ERROR'
+        layout.label(text=handle_row_text(item, data.id_data), icon=icon)
 
 
 def handle_row_text(handle, obj):
     """A handle's row: its vertex group, then its Empty when that is not named after the group (Add Handle
-    from Selection names the Empty '<mesh>_<group>': the group says it all)."""
+    from Selection names the Empty '<mesh>_<group>': the group says it all), or its bone when that is not
+    named as the group (Handles from Armature names the group after the bone)."""
     group = handle.group or "(no group)"
+    if handle.bone:
+        if handle.armature is None:
+            return group + "  (no armature)"
+        return group if handle.bone in group else "%s → %s" % (group, handle.bone)
     if handle.empty is None:
         return group + "  (no Empty)"
     name = handle.empty.name
@@ -92,6 +101,7 @@ class ARAP_PT_main(bpy.types.Panel):
         if 0 <= s.active_handle < len(s.handles):
             draw_active_handle(col.box(), s.handles[s.active_handle], obj)
         col.operator("object.arap_add_handle_from_selection", text="Add Handle from Selection", icon='ADD')
+        col.operator("object.arap_handles_from_armature", text="Handles from Armature", icon='ARMATURE_DATA')
 
         col.separator()
         sub = col.column()
@@ -114,11 +124,19 @@ class ARAP_PT_main(bpy.types.Panel):
 
 
 def draw_active_handle(box, handle, obj):
-    """The active handle's group and Empty, each on a row of its own at the sidebar's full width (the list
-    above shortens long names)."""
+    """The active handle's group and Empty (or bone), each on a row of its own at the sidebar's full width
+    (the list above shortens long names)."""
     col = box.column(align=True)
     col.label(text="Group")
     col.prop_search(handle, "group", obj, "vertex_groups", text="")
+    if handle.bone:
+        armature = handle.armature
+        col.label(text="Bone of '%s'" % (armature.name if armature is not None else "(deleted armature)"))
+        if armature is not None and armature.type == 'ARMATURE':
+            col.prop_search(handle, "bone", armature.data, "bones", text="")
+        else:
+            col.prop(handle, "bone", text="")
+        return
     col.label(text="Empty")
     col.prop(handle, "empty", text="")
 
@@ -211,6 +229,7 @@ class ARAP_MT_menu(bpy.types.Menu):
         layout.operator("object.arap_set_rest_pose")
         layout.separator()
         layout.operator("object.arap_add_handle_from_selection")
+        layout.operator("object.arap_handles_from_armature")
         layout.operator("object.arap_set_fixed_from_selection")
         layout.operator("object.arap_handle_add")
         layout.operator("object.arap_handle_remove")

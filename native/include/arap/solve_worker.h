@@ -43,6 +43,8 @@ class SolveWorker {
   // restart: the solve starts cold (Solver::forget_solution), so that what it settles on depends on
   // the targets alone; else it goes on from where the last one stopped.
   void post(const Eigen::Ref<const Points>& targets, bool restart = false);
+  // post(targets, restart=true), the cold solve starting from `start` (Solver::start_from).
+  void post_from(const Eigen::Ref<const Points>& targets, const Eigen::Ref<const Points>& start);
   // When a solve finished since the last take(): fills `result`, calls `read(positions)` with the
   // solution (#V by 3, valid only during the call) and returns true. A solve that threw is
   // rethrown here, once; the worker then waits for new targets.
@@ -61,6 +63,7 @@ class SolveWorker {
 
  private:
   void run();
+  void post(const Eigen::Ref<const Points>& targets, bool restart, const Eigen::Ref<const Points>* start);
 
   Solver& solver_;
   const int max_iterations_;
@@ -72,6 +75,8 @@ class SolveWorker {
   Points pending_;             // the newest targets, not yet taken up by the worker
   bool fresh_ = false;         // pending_ holds targets the worker has not started on
   bool restart_ = false;       // ... to be solved from a cold start
+  bool from_start_ = false;    // ... that starts from start_
+  Points start_;
   bool working_ = false;       // the current targets have not settled yet
   bool quit_ = false;
   int spent_ = 0;              // iterations on the current targets

@@ -56,6 +56,12 @@ class Solver {
   // WarmStart), as the first one after bind() does, so its result depends on its targets and
   // options alone, bit for bit, whatever was solved before. Solves after it resume it as usual.
   void forget_solution();
+  // forget_solution(), then the next solve() starts from `positions` (#V by 3, input order) instead of
+  // options().init's first guess, the constrained vertices at their targets (Infill's lattice nodes at
+  // rest, as the Naive guess has them): a cold start from a given shape, whose result depends on the
+  // targets, options and `positions` alone. For a shape that is already near the pose (a rig's skinned
+  // pose).
+  void start_from(const Eigen::Ref<const Points>& positions);
 
   // For a solve() running on another thread (thread-safe): while set, solve() returns after the
   // iteration in progress, as when its time budget runs out (stats.converged false). solve() never
