@@ -80,6 +80,10 @@ def parse_args():
     p.add_argument("--vertices", type=int, default=10000, help="the tube's vertex count")
     p.add_argument("--repeats", type=int, default=5, help="evaluations timed per pose, Blender's deformers")
     p.add_argument("--planes", type=int, default=29, help="arap-mesh-measure --planes")
+    p.add_argument("--deformers", nargs="+", choices=DEFORMERS, default=list(DEFORMERS),
+                   help="the deformers to run (default: all)")
+    p.add_argument("--core-weight", type=float, default=None,
+                   help="Handles from Armature's Core Weight (default: the operator's)")
     return p.parse_args(argv)
 
 
@@ -168,8 +172,10 @@ def set_up_blender(obj, deformer):
         smooth.rest_source = 'ORCO'
 
 
-def set_up_arap(api, obj, deformer):
-    """Bone handles from the armature (default threshold), Self Contact for arap_contact, Auto on."""
+def set_up_arap(api, obj, deformer, core_weight=None):
+    """Bone handles from the armature (`core_weight`, default the operator's), Self Contact for arap_contact,
+    Auto on."""
+    core = {} if core_weight is None else {"threshold": core_weight}
     if api is None:
         raise CaseError("the add-on is not loaded")
     if not hasattr(bpy.types, "OBJECT_OT_" + OPERATOR):
@@ -180,7 +186,7 @@ def set_up_arap(api, obj, deformer):
     bpy.context.view_layer.objects.active = obj
     with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj],
                                    selected_editable_objects=[obj]):
-        done = getattr(bpy.ops.object, OPERATOR)()
+        done = getattr(bpy.ops.object, OPERATOR)(**core)
     if 'FINISHED' not in done:
         raise CaseError("bpy.ops.object.%s() returned %s" % (OPERATOR, sorted(done)))
     obj.arap.contact = deformer == "arap_contact"
@@ -212,7 +218,7 @@ def run_deformer(args, api, build_rig, rig_name, deformer, rest_faces):
     results = {}
     try:
         if deformer in ARAP_DEFORMERS:
-            set_up_arap(api, obj, deformer)
+            set_up_arap(api, obj, deformer, args.core_weight)
         else:
             set_up_blender(obj, deformer)
         for k, (kind, angle) in enumerate(POSES):
@@ -252,7 +258,7 @@ def run_rig(args, api, rig_name, build_rig):
     entry = {"rig": rig_name, "vertices": len(co), "faces": len(faces), "bones": len(rig.data.bones),
              "poses": {}}
     print("%s: %d vertices, %d faces, %d bones" % (rig_name, len(co), len(faces), len(rig.data.bones)), flush=True)
-    for deformer in DEFORMERS:
+    for deformer in args.deformers:
         for name, result in run_deformer(args, api, build_rig, rig_name, deformer, faces).items():
             entry["poses"].setdefault(name, {})[deformer] = result
     return entry
@@ -282,24 +288,24 @@ def cell(result):
                                         m["distortion"])
 
 
-def markdown(entries, header):
+def markdown(entries, header, deformers=DEFORMERS):
     """rig.md: the shape table and the CPU table."""
     lines = [header, "",
              "Per deformer: volume % / smallest cross-section (posed / rest area) / new self-crossings "
              "(triangle pairs) / distortion, from arap-mesh-measure.", "",
-             "| rig | pose | " + " | ".join(DEFORMERS) + " |",
-             "|---|---|" + "---:|" * len(DEFORMERS)]
+             "| rig | pose | " + " | ".join(deformers) + " |",
+             "|---|---|" + "---:|" * len(deformers)]
     for e in entries:
         for pose_name, row in e["poses"].items():
             lines.append("| %s | %s | %s |" % (e["rig"], pose_name.replace("_", " "),
-                                               " | ".join(cell(row.get(d)) for d in DEFORMERS)))
+                                               " | ".join(cell(row.get(d)) for d in deformers)))
     lines += ["", "CPU ms of the frame evaluation (Blender's deformers: median of the repeats; ARAP: the "
               "first evaluation, the solve).", "",
-              "| rig | pose | " + " | ".join(DEFORMERS) + " |", "|---|---|" + "---:|" * len(DEFORMERS)]
+              "| rig | pose | " + " | ".join(deformers) + " |", "|---|---|" + "---:|" * len(deformers)]
     for e in entries:
         for pose_name, row in e["poses"].items():
             cpu = ["%.1f" % row[d]["cpu_ms_median"] if d in row and "cpu_ms_median" in row[d] else "-"
-                   for d in DEFORMERS]
+                   for d in deformers]
             lines.append("| %s | %s | %s |" % (e["rig"], pose_name.replace("_", " "), " | ".join(cpu)))
     return "\n".join(lines) + "\n"
 
@@ -442,9 +448,10 @@ def main():
         bpy.app.version_string, date, command_line())
     with open(os.path.join(args.out, "rig.json"), "w") as f:
         json.dump({"command": command_line(), "date": date, "blender": bpy.app.version_string,
-                   "planes": args.planes, "repeats": args.repeats, "poses": POSES, "deformers": DEFORMERS,
+                   "planes": args.planes, "repeats": args.repeats, "poses": POSES, "deformers": args.deformers,
+                   "core_weight": args.core_weight,
                    "rigs": entries}, f, indent=1)
-    table = markdown(entries, header)
+    table = markdown(entries, header, args.deformers)
     with open(os.path.join(args.out, "rig.md"), "w") as f:
         f.write(table)
     print(table)

@@ -81,7 +81,8 @@ class ARAP_PT_main(bpy.types.Panel):
         session = sessions.session_for(obj)
         # One line whatever is active, so that nothing below moves when an Empty becomes active.
         if obj != context.active_object:
-            layout.label(text="Handle of '%s'" % obj.name, icon='EMPTY_AXIS')
+            rig = context.active_object.type == 'ARMATURE'   # its bones are the handles
+            layout.label(text="Handle of '%s'" % obj.name, icon='ARMATURE_DATA' if rig else 'EMPTY_AXIS')
         else:
             layout.label(text=obj.name, icon='MESH_DATA')
 
