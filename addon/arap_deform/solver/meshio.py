@@ -11,6 +11,7 @@ Rest shape (what ARAP keeps as rigid as possible):
 
 import time
 
+import bpy
 import numpy as np
 
 from ..errors import SetupError
@@ -43,6 +44,22 @@ def triangles(mesh):
     corners = np.empty(len(mesh.loops), np.int32)
     corner_vert.data.foreach_get("value", corners)
     return corners[tris].reshape(-1, 3)
+
+
+def rest_triangles(mesh, rest32):
+    """triangles() of the mesh at its rest shape `rest32` (flat float32). Blender splits a quad or an n-gon
+    by the current shape (the shorter diagonal), so a mesh that shows a pose would be triangulated otherwise,
+    and a pose solved after a bind then would depend on the pose the mesh showed at the bind (a render
+    node that opens a file saved posed). When the mesh shows another shape than its rest, a copy at rest is
+    triangulated."""
+    if np.array_equal(read_coords(mesh), rest32):
+        return triangles(mesh)
+    at_rest = mesh.copy()
+    try:
+        at_rest.vertices.foreach_set("co", rest32)
+        return triangles(at_rest)
+    finally:
+        bpy.data.meshes.remove(at_rest)
 
 
 class Topology:

@@ -96,7 +96,7 @@ class Problem:
         self.output = meshio.resolve_output(obj, s.output)
         self.rest32 = meshio.rest_coords(obj, self.output) if rest32 is None else rest32
         self.rest64 = self.rest32.astype(np.float64).reshape(-1, 3)
-        self.tris = meshio.triangles(obj.data) if tris is None else tris
+        self.tris = meshio.rest_triangles(obj.data, self.rest32) if tris is None else tris
         if len(self.tris) == 0:
             raise SetupError("'%s' has no faces: ARAP needs a surface" % obj.name)
         self.rest_constrained = self.rest64[self.setup.constrained]
@@ -118,10 +118,11 @@ class Problem:
                                                         constraints.stiff_group(obj))
         if len(obj.data.vertices) > meshio.GROUP_CHUNK:
             yield
-        tris = meshio.triangles(obj.data)
+        rest32 = meshio.rest_coords(obj, meshio.resolve_output(obj, obj.arap.output))
+        tris = meshio.rest_triangles(obj.data, rest32)
         if len(obj.data.vertices) > meshio.GROUP_CHUNK:
             yield
-        return cls(obj, scene, groups=groups, tris=tris)
+        return cls(obj, scene, rest32=rest32, groups=groups, tris=tris)
 
     @property
     def has_contact(self):
