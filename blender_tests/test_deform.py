@@ -311,7 +311,7 @@ class MeshReading(unittest.TestCase):
         b = self.obj.vertex_groups.new(name="b")
         b.add([1, 2, 11], 0.25, 'REPLACE')
         b.add([7], 0.5, 'REPLACE')
-        steps = meshio.read_groups_in_steps(self.obj, ["a", "b"], weights_of="b", chunk=2)
+        steps = meshio.read_groups_in_steps(self.obj, ["a", "b"], weights_of=["b", "missing", "a"], chunk=2)
         yields = 0
         while True:
             try:
@@ -323,8 +323,10 @@ class MeshReading(unittest.TestCase):
         self.assertEqual(yields, 5)   # 12 vertices, 2 at a time: a yield between chunks
         self.assertEqual(members["a"].tolist(), [0, 3, 7])
         self.assertEqual(members["b"].tolist(), [1, 2, 7, 11])
-        np.testing.assert_array_equal(weights, meshio.group_weights(self.obj, "b"))
-        self.assertEqual(weights[7], 0.5)
+        np.testing.assert_array_equal(weights[:, 0], meshio.group_weights(self.obj, "b"))
+        np.testing.assert_array_equal(weights[:, 1], 0.0)   # no such group
+        np.testing.assert_array_equal(weights[:, 2], meshio.group_weights(self.obj, "a"))
+        self.assertEqual((weights[7, 0], weights[7, 2]), (0.5, 1.0))
         self.assertEqual({k: v.tolist() for k, v in meshio.group_members(self.obj, ["a", "b"]).items()},
                          {k: v.tolist() for k, v in members.items()})
 

@@ -134,6 +134,10 @@ class BoneHandles(unittest.TestCase):
         start = read.start_shape(read.pose(self.obj).transforms)
         self.obj.modifiers["Armature"].use_deform_preserve_volume = True
         np.testing.assert_allclose(start, U.evaluated_coords(self.obj), atol=1e-5 * self.size)
+        # Read in steps (Auto mode in the viewport), the same weights and start.
+        stepped = meshio.finish(problem.Problem.read_in_steps(self.obj, bpy.context.scene))
+        np.testing.assert_array_equal(stepped.skinned.weights, read.skinned.weights)
+        np.testing.assert_array_equal(stepped.start_shape(read.pose(self.obj).transforms), start)
         # Without bone handles there is none: the solver's own first guess (the Start setting).
         self.obj.arap.handles.clear()
         self.obj.arap.fixed_group = "B0"

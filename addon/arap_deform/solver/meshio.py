@@ -117,27 +117,28 @@ class Topology:
 GROUP_CHUNK = 100_000   # vertices read per step by read_groups_in_steps (about 0.1 s of Blender's thread)
 
 
-def read_groups_in_steps(obj, names, weights_of=None, chunk=None):
-    """Generator: reads the vertex groups `names` (and the weights of the group `weights_of`, if given) over
-    the vertices, `chunk` at a time (default GROUP_CHUNK), and yields between chunks, so that Blender's thread can go on in
-    between (Blender has no array read of vertex groups: each vertex is a Python object). Returns, as the
-    generator's value, ({group name: sorted int64 indices of vertices with weight > 0}, float64 per-vertex
-    weights of `weights_of` (0 outside) or None)."""
+def read_groups_in_steps(obj, names, weights_of=(), chunk=None):
+    """Generator: reads the vertex groups `names` (and the weights of the groups `weights_of`) over the
+    vertices, `chunk` at a time (default GROUP_CHUNK), and yields between chunks, so that Blender's thread can
+    go on in between (Blender has no array read of vertex groups: each vertex is a Python object). Returns, as
+    the generator's value, ({group name: sorted int64 indices of vertices with weight > 0}, float64
+    (n, len(weights_of)) weights of the groups `weights_of`, 0 outside a group and for a missing group)."""
     chunk = chunk or GROUP_CHUNK
     groups = obj.vertex_groups
     index_of = {groups[name].index: name for name in names if name in groups}
-    weighted = groups[weights_of].index if weights_of else -1
+    column_of = {groups[name].index: k for k, name in enumerate(weights_of) if name in groups}
     members = {name: [] for name in index_of.values()}
-    weights = np.zeros(len(obj.data.vertices), np.float64) if weights_of else None
+    weights = np.zeros((len(obj.data.vertices), len(weights_of)), np.float64)
     vertices = obj.data.vertices
-    if index_of or weights_of:
+    if index_of or column_of:
         for start in range(0, len(vertices), chunk):
             if start:
                 yield   # between chunks: a mesh of one chunk is read in one go
             for v in vertices[start:start + chunk]:
                 for g in v.groups:
-                    if g.group == weighted:
-                        weights[v.index] = g.weight
+                    column = column_of.get(g.group)
+                    if column is not None:
+                        weights[v.index, column] = g.weight
                     name = index_of.get(g.group)
                     if name is not None and g.weight > 0.0:
                         members[name].append(v.index)
@@ -156,7 +157,7 @@ def finish(steps):
 
 def group_weights(obj, name):
     """Per-vertex weight (float64, 0 outside) of vertex group `name`."""
-    return finish(read_groups_in_steps(obj, [], weights_of=name))[1]
+    return finish(read_groups_in_steps(obj, [], weights_of=[name]))[1][:, 0]
 
 
 def group_members(obj, names):

@@ -89,7 +89,8 @@ class Problem:
     `rest32`: another flat float32 rest shape than the one Deform uses (the bake's)."""
 
     def __init__(self, obj, scene, rest32=None, groups=None, tris=None):
-        members, stiff_weights = groups if groups is not None else (None, None)
+        # groups: (members, stiff weights, skin) as read_in_steps() read them
+        members, stiff_weights, skin = groups if groups is not None else (None, None, None)
         self.setup = constraints.gather(obj, scene, members)
         self.check_loops(obj)
         s = obj.arap
@@ -100,7 +101,7 @@ class Problem:
         if len(self.tris) == 0:
             raise SetupError("'%s' has no faces: ARAP needs a surface" % obj.name)
         self.rest_constrained = self.rest64[self.setup.constrained]
-        self.skinned = skinning.SkinnedStart.of(obj, self.setup, self.rest64)   # None without bone handles
+        self.skinned = skinning.SkinnedStart.of(obj, self.setup, self.rest64, skin)   # None without bone handles
         self._targets = np.empty_like(self.rest_constrained)
         self.weights = WEIGHT_NAMES[s.weights]
         self.stiffness = constraints.stiffness_of(obj, stiff_weights)
@@ -114,8 +115,11 @@ class Problem:
         on in between; the Problem is the generator's value. The object may change between steps: the caller
         checks it is still the same."""
         constraints.check_object(obj)
-        groups = yield from meshio.read_groups_in_steps(obj, constraints.group_names(obj),
-                                                        constraints.stiff_group(obj))
+        stiff, bones = constraints.stiff_group(obj), skinning.skin_bones(obj)
+        weights_of = ([stiff] if stiff else []) + bones
+        members, weights = yield from meshio.read_groups_in_steps(obj, constraints.group_names(obj), weights_of)
+        skin = (bones, weights[:, len(weights_of) - len(bones):])
+        groups = (members, weights[:, 0] if stiff else None, skin)
         if len(obj.data.vertices) > meshio.GROUP_CHUNK:
             yield
         rest32 = meshio.rest_coords(obj, meshio.resolve_output(obj, obj.arap.output))

@@ -20,7 +20,7 @@ import json
 
 import numpy as np
 
-from . import drivers
+from . import drivers, meshio
 from ..errors import SetupError
 
 CORE_PREFIX = "ARAP_Core_"            # + bone name: the vertex group of a bone's rigid core
@@ -51,14 +51,7 @@ def core_group_name(bone):
 def bone_weights(obj, bones):
     """(n, len(bones)) float64 weights of the vertex groups named after `bones` (0 where a vertex is not in
     one; a bone without a group gets a column of zeros)."""
-    index = {obj.vertex_groups[b].index: k for k, b in enumerate(bones) if b in obj.vertex_groups}
-    weights = np.zeros((len(obj.data.vertices), len(bones)), np.float64)
-    for v in obj.data.vertices:
-        for g in v.groups:
-            k = index.get(g.group)
-            if k is not None:
-                weights[v.index, k] = g.weight
-    return weights
+    return meshio.finish(meshio.read_groups_in_steps(obj, [], weights_of=bones))[1]
 
 
 class RigHandles:

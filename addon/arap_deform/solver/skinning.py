@@ -87,25 +87,35 @@ def blend(rest, weights, transforms):
     return out
 
 
+def skin_bones(obj):
+    """The bones whose weights a SkinnedStart of `obj` reads: its bone handles' bones."""
+    return [h.bone for h in obj.arap.handles if h.bone]
+
+
 class SkinnedStart:
     """The start shape of a Problem whose handles include bones: blend() of the rest shape by the weights of
     the vertex groups named after those bones (normalised as the Armature modifier normalises them) and the
     bone handles' transforms."""
 
-    def __init__(self, obj, setup, rest64):
+    def __init__(self, obj, setup, rest64, skin=None):
         self.handles = [k for k, h in enumerate(setup.handles) if drivers.is_bone(h)]
         bones = [setup.handles[k].bone for k in self.handles]
-        weights = rig.bone_weights(obj, bones)
+        if skin is not None:   # read already: (bone names, their weights' columns)
+            names, columns = skin
+            weights = columns[:, [names.index(b) for b in bones]]
+        else:
+            weights = rig.bone_weights(obj, bones)
         total = weights.sum(axis=1, keepdims=True)
         self.weights = np.divide(weights, total, out=np.zeros_like(weights), where=total > 0)
         self.rest = rest64
 
     @classmethod
-    def of(cls, obj, setup, rest64):
-        """A SkinnedStart when some handle follows a bone whose vertex group weights a vertex, else None."""
+    def of(cls, obj, setup, rest64, skin=None):
+        """A SkinnedStart when some handle follows a bone whose vertex group weights a vertex, else None.
+        `skin`: (bone names, (n, k) weights) as skin_bones() named them, read already (Problem.read_in_steps)."""
         if not any(drivers.is_bone(h) for h in setup.handles):
             return None
-        start = cls(obj, setup, rest64)
+        start = cls(obj, setup, rest64, skin)
         return start if start.weights.any() else None
 
     def positions(self, transforms):
