@@ -85,6 +85,23 @@ class BoneHandles(unittest.TestCase):
         self.assertGreater(sum(wide.core_sizes), sum(made.core_sizes))
         self.assertEqual(sum(1 for g in self.obj.vertex_groups if g.name.startswith(rig.CORE_PREFIX)), 3)
 
+    def test_a_bone_handle_made_by_hand(self):
+        hand = weighted_fully(self.obj, "B2")
+        api.create_group(self.obj, "hand", hand)
+        api.create_group(self.obj, "foot", np.flatnonzero(self.rest[:, 2] < -2.5))
+        api.set_fixed(self.obj, "foot")
+        with self.assertRaisesRegex(SetupError, "no bone 'Wrist'"):
+            api.add_bone_handle(self.obj, "hand", self.rig, "Wrist")
+        with self.assertRaisesRegex(SetupError, "armature"):
+            api.add_bone_handle(self.obj, "hand", U.add_empty("NotARig"), "B2")
+        api.add_bone_handle(self.obj, "hand", self.rig, "B2")
+        bend_and_twist(self.rig, bend=45.0, twist=90.0)
+        result = api.deform(self.obj)
+        self.assertTrue(result.converged)
+        expected = linear_blend_of_one_bone(self.obj, self.rig, "B2", self.rest[hand])
+        np.testing.assert_allclose(U.coords(self.obj)[hand], expected, atol=1e-6 * self.size)
+        self.assertFalse(self.obj.modifiers["Armature"].show_viewport)
+
     def test_unweighted_vertices_are_fixed_and_non_deform_bones_left_out(self):
         loose = [int(i) for i in np.flatnonzero(self.rest[:, 2] < -2.5)]
         for name in ("B0", "B1", "B2"):
