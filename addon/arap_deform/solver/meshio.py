@@ -51,8 +51,9 @@ def rest_triangles(mesh, rest32):
     by the current shape (the shorter diagonal), so a mesh that shows a pose would be triangulated otherwise,
     and a pose solved after a bind then would depend on the pose the mesh showed at the bind (a render
     node that opens a file saved posed). When the mesh shows another shape than its rest, a copy at rest is
-    triangulated."""
-    if np.array_equal(read_coords(mesh), rest32):
+    triangulated. (Only a mesh with the rest attribute can show a pose in its coordinates: the shape key
+    result leaves them at the basis.)"""
+    if not has_rest_attribute(mesh) or np.array_equal(read_coords(mesh), rest32):
         return triangles(mesh)
     at_rest = mesh.copy()
     try:
