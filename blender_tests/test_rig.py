@@ -85,6 +85,33 @@ class BoneHandles(unittest.TestCase):
         self.assertGreater(sum(wide.core_sizes), sum(made.core_sizes))
         self.assertEqual(sum(1 for g in self.obj.vertex_groups if g.name.startswith(rig.CORE_PREFIX)), 3)
 
+    def test_a_mesh_without_a_rig_or_weights_gets_a_message_and_nothing_changes(self):
+        self.obj.modifiers.remove(self.obj.modifiers["Armature"])
+        self.obj.parent = None
+        with self.assertRaisesRegex(SetupError, "no Armature modifier"):
+            api.handles_from_armature(self.obj)
+        with self.assertRaisesRegex(SetupError, "has no deform bones"):
+            for bone in self.rig.data.bones:
+                bone.use_deform = False
+            api.handles_from_armature(self.obj, armature=self.rig)
+        for bone in self.rig.data.bones:
+            bone.use_deform = True
+        self.obj.vertex_groups.clear()
+        groups = len(self.obj.vertex_groups)
+        with self.assertRaisesRegex(SetupError, "No deform bone of 'Rig' weights a vertex"):
+            api.handles_from_armature(self.obj, armature=self.rig)
+        self.assertEqual((len(self.obj.arap.handles), len(self.obj.vertex_groups)), (0, groups))
+
+    def test_handles_made_again_while_auto_poses_rebind(self):
+        self.make_handles(threshold=0.99)
+        bend_and_twist(self.rig, twist=90.0)
+        api.set_auto(self.obj, True)
+        narrow = U.coords(self.obj).copy()
+        self.make_handles(threshold=0.6)
+        bpy.context.view_layer.update()
+        self.assertTrue(self.obj.arap.auto, self.obj.arap.auto_status)
+        self.assertGreater(np.abs(U.coords(self.obj) - narrow).max(), 1e-3 * self.size)
+
     def test_a_bone_handle_made_by_hand(self):
         hand = weighted_fully(self.obj, "B2")
         api.create_group(self.obj, "hand", hand)

@@ -44,7 +44,7 @@ import bpy
 import numpy as np
 
 from . import native_loader
-from .persistence import older_settings
+from .persistence import older_settings, properties
 from .solver import constraints, deform_job, problem, rig, solver_cache
 from .solver.deform_job import DeformResult  # noqa: F401
 from .errors import SessionError, SetupError  # noqa: F401
@@ -135,7 +135,10 @@ def handles_from_armature(obj, threshold=None, armature=None):
     .skipped, .summary())."""
     _registered()
     constraints.check_object(obj)
-    return rig.handles_from_armature(obj, rig.DEFAULT_CORE_WEIGHT if threshold is None else threshold, armature)
+    made = rig.handles_from_armature(obj, rig.DEFAULT_CORE_WEIGHT if threshold is None else threshold, armature)
+    if obj.arap.auto and properties.on_bind_changed is not None:
+        properties.on_bind_changed(obj.arap, bpy.context)   # Auto mode binds the new cores and poses again
+    return made
 
 
 def remove_handle(obj, index):
