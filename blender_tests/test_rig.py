@@ -81,9 +81,17 @@ class BoneHandles(unittest.TestCase):
         # running it again replaces the bone handles (and their groups) instead of adding more.
         self.assertEqual(self.obj.arap.fixed_group, "")
         wide = api.handles_from_armature(self.obj, threshold=0.5)
+        wide_b1 = meshio.group_weights(self.obj, "B1")
         self.assertEqual(len(self.obj.arap.handles), 3)
         self.assertGreater(sum(wide.core_sizes), sum(made.core_sizes))
         self.assertEqual(sum(1 for g in self.obj.vertex_groups if g.name.startswith(rig.CORE_PREFIX)), 3)
+        # A bone no vertex reaches any more loses its handle and its core group.
+        self.obj.vertex_groups["B1"].add(list(range(len(self.rest))), 0.3, 'REPLACE')
+        self.obj.vertex_groups["B1"].remove([int(i) for i in np.flatnonzero(wide_b1 == 0)])
+        again = api.handles_from_armature(self.obj, threshold=0.9)
+        self.assertEqual(again.bones, ["B0", "B2"])
+        self.assertNotIn("ARAP_Core_B1", self.obj.vertex_groups)
+        self.assertEqual([h.bone for h in self.obj.arap.handles], ["B0", "B2"])
 
     def test_a_mesh_without_a_rig_or_weights_gets_a_message_and_nothing_changes(self):
         self.obj.modifiers.remove(self.obj.modifiers["Armature"])

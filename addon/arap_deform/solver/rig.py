@@ -97,12 +97,13 @@ def handles_from_armature(obj, threshold=DEFAULT_CORE_WEIGHT, armature=None):
             s.handles.remove(i)
     made = RigHandles()
     for k, bone in enumerate(bones):
-        if bone not in obj.vertex_groups:
-            made.skipped.append((bone, "no vertex group"))
-            continue
         core = np.flatnonzero(weights[:, k] >= threshold)
-        if core.size == 0:
-            made.skipped.append((bone, "no vertex weighted %g or more" % threshold))
+        if bone not in obj.vertex_groups or core.size == 0:
+            made.skipped.append((bone, "no vertex group" if bone not in obj.vertex_groups else
+                                 "no vertex weighted %g or more" % threshold))
+            stale = obj.vertex_groups.get(core_group_name(bone))   # a core made before, by a lower Core Weight
+            if stale is not None:
+                obj.vertex_groups.remove(stale)
             continue
         group = _set_group(obj, core_group_name(bone), core).name
         item = s.handles.add()
