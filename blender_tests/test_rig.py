@@ -190,6 +190,8 @@ class BoneHandles(unittest.TestCase):
         stepped = meshio.finish(problem.Problem.read_in_steps(self.obj, bpy.context.scene))
         np.testing.assert_array_equal(stepped.skinned.weights, read.skinned.weights)
         np.testing.assert_array_equal(stepped.start_shape(read.pose(self.obj).transforms), start)
+        # Live goes on from its last pose: its Problem reads no weights for a start.
+        self.assertIsNone(problem.Problem(self.obj, bpy.context.scene, cold_starts=False).skinned)
         # Without bone handles there is none: the solver's own first guess (the Start setting).
         self.obj.arap.handles.clear()
         self.obj.arap.fixed_group = "B0"

@@ -75,7 +75,7 @@ class LiveSession:
         self.obj = obj
         self.scene = scene
         sync_matrices()
-        self.problem = Problem(obj, scene)
+        self.problem = Problem(obj, scene, cold_starts=False)
         self.n_vertices = len(obj.data.vertices)
         self.topology = meshio.Topology(obj.data)
         self._next_topology_check = time.monotonic() + TOPOLOGY_CHECK_S

@@ -86,9 +86,10 @@ class Problem:
     """Everything read from Blender for one bind: rest, triangles, constraints;
     and the targets of the constrained vertices for the handles' pose (pose(),
     targets()), the one way Deform, Live, the bake and Auto mode get them.
-    `rest32`: another flat float32 rest shape than the one Deform uses (the bake's)."""
+    `rest32`: another flat float32 rest shape than the one Deform uses (the bake's); `cold_starts`: False when
+    no solve will start cold (Live), so start_shape() is None."""
 
-    def __init__(self, obj, scene, rest32=None, groups=None, tris=None):
+    def __init__(self, obj, scene, rest32=None, groups=None, tris=None, cold_starts=True):
         # groups: (members, stiff weights, skin) as read_in_steps() read them
         members, stiff_weights, skin = groups if groups is not None else (None, None, None)
         self.setup = constraints.gather(obj, scene, members)
@@ -101,7 +102,9 @@ class Problem:
         if len(self.tris) == 0:
             raise SetupError("'%s' has no faces: ARAP needs a surface" % obj.name)
         self.rest_constrained = self.rest64[self.setup.constrained]
-        self.skinned = skinning.SkinnedStart.of(obj, self.setup, self.rest64, skin)   # None without bone handles
+        # A rig's skinned start (None without bone handles, or for Live, which goes on from its last pose and
+        # needs none: its bone weights are then not read).
+        self.skinned = skinning.SkinnedStart.of(obj, self.setup, self.rest64, skin) if cold_starts else None
         self._targets = np.empty_like(self.rest_constrained)
         self.weights = WEIGHT_NAMES[s.weights]
         self.stiffness = constraints.stiffness_of(obj, stiff_weights)

@@ -134,9 +134,11 @@ def mute_armature(obj):
     """Turn off the Armature deformation of `obj` by its bone handles' armatures (Armature modifiers in the
     viewport and renders; an armature parent becomes a plain object parent, which keeps the object where it
     is), remembering what was on. Nothing to do without bone handles, or when already muted."""
-    armatures = deforming_armatures(obj)
     s = obj.arap
-    if not armatures or s.armature_muted:
+    if s.armature_muted:
+        return   # every pose written checks: muted already is one string test
+    armatures = deforming_armatures(obj)
+    if not armatures:
         return
     muted = {"modifiers": [], "parent_type": None}
     for m in obj.modifiers:
